@@ -1,0 +1,151 @@
+"""The ``drake-clutter`` command line.
+
+Subcommands (more arrive with the planners):
+  scene generate --kind bookshelf|fridge --objects N --seed S -o FILE
+  scene validate FILE
+  scene show FILE|NAME [--html FILE] [--variant V]
+  scene list
+  config show [--config FILE] [--set key=value ...]
+
+Bad input (a scene file, a config file, an argument) prints one line naming the problem on
+stderr and exits with status 2; there is never a traceback for user errors.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from drake_clutter.typed_yaml import InputError
+
+EXIT_USAGE = 2
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse that reports a usage error as one line and exits 2."""
+
+    def error(self, message: str):  # noqa: D102 - argparse API
+        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        raise SystemExit(EXIT_USAGE)
+
+
+def _add_config_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--config", help="YAML file overriding the default configuration")
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="KEY=VALUE", help="override one setting, e.g. world.time_step=0.005")
+
+
+def _load_config(args):
+    from drake_clutter.config import load_config
+
+    return load_config(args.config, args.overrides)
+
+
+def _cmd_scene_generate(args) -> int:
+    from drake_clutter.generators import generate_scene
+    from drake_clutter.scenes import save_scene
+
+    config = _load_config(args)
+    if args.objects < 1:
+        raise InputError("<command line>", "--objects", f"must be at least 1, got {args.objects}")
+    scene = generate_scene(args.kind, args.objects, args.seed, config.generator)
+    path = save_scene(scene, args.output)
+    print(f"wrote {path} ({len(scene.boxes)} boxes, {scene.shelf.kind})")
+    return 0
+
+
+def _cmd_scene_validate(args) -> int:
+    from drake_clutter.scenes import load_scene
+
+    scene = load_scene(args.file)
+    print(f"{args.file}: ok ({scene.shelf.kind}, {len(scene.boxes)} boxes, target "
+          f"'{scene.target}')")
+    return 0
+
+
+def _cmd_scene_list(args) -> int:
+    from drake_clutter.scenes import load_shipped_scene, shipped_scene_names
+
+    for name in shipped_scene_names():
+        scene = load_shipped_scene(name)
+        summary = scene.description.splitlines()[0] if scene.description else ""
+        print(f"{name:22s} {scene.shelf.kind:9s} {len(scene.boxes):3d} boxes  {summary}")
+    return 0
+
+
+def _cmd_scene_show(args) -> int:
+    from drake_clutter.scenes import resolve_scene
+    from drake_clutter.viz import show_scene
+
+    config = _load_config(args)
+    scene = resolve_scene(args.scene)
+    show_scene(scene, config, variant=args.variant, html=args.html,
+               wait=not args.html and not args.no_wait)
+    return 0
+
+
+def _cmd_config_show(args) -> int:
+    from drake_clutter.config import config_to_data
+    from drake_clutter.typed_yaml import dump_yaml
+
+    print(dump_yaml(config_to_data(_load_config(args))), end="")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``drake-clutter``."""
+    from drake_clutter.robot_model import VARIANTS
+
+    parser = _OneLineParser(prog="drake-clutter", description=__doc__.splitlines()[0])
+    groups = parser.add_subparsers(dest="group", required=True, parser_class=_OneLineParser)
+
+    scene = groups.add_parser("scene", help="generate, validate, list and show scenes")
+    scene_cmds = scene.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
+    gen = scene_cmds.add_parser("generate", help="generate a random scene (Sec. VI-B)")
+    gen.add_argument("--kind", choices=("bookshelf", "fridge"), required=True)
+    gen.add_argument("--objects", type=int, required=True, help="boxes, the target included")
+    gen.add_argument("--seed", type=int, required=True)
+    gen.add_argument("-o", "--output", required=True, help="YAML file to write")
+    _add_config_args(gen)
+    gen.set_defaults(func=_cmd_scene_generate)
+
+    val = scene_cmds.add_parser("validate", help="check a scene file")
+    val.add_argument("file")
+    val.set_defaults(func=_cmd_scene_validate)
+
+    lst = scene_cmds.add_parser("list", help="list the shipped scenes")
+    lst.set_defaults(func=_cmd_scene_list)
+
+    show = scene_cmds.add_parser("show", help="show a scene and the arm in Meshcat")
+    show.add_argument("scene", help="a scene YAML file or a shipped scene name")
+    show.add_argument("--html", help="write a self-contained HTML file instead of serving")
+    show.add_argument("--variant", choices=VARIANTS, default="capsules",
+                      help="arm geometry to draw (default: the planning proxy)")
+    show.add_argument("--no-wait", action="store_true",
+                      help="publish and exit instead of serving until interrupted")
+    _add_config_args(show)
+    show.set_defaults(func=_cmd_scene_show)
+
+    cfg = groups.add_parser("config", help="inspect the configuration")
+    cfg_cmds = cfg.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
+    cshow = cfg_cmds.add_parser("show", help="print the effective configuration as YAML")
+    _add_config_args(cshow)
+    cshow.set_defaults(func=_cmd_config_show)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status (0 ok, 2 bad input)."""
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except InputError as exc:
+        print(f"drake-clutter: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,144 @@
+"""The one configuration: every paper constant and tuning knob, typed, with its source.
+
+Each field's comment gives the paper section (Kitaev et al., ICRA 2015) or says "ours" when
+the paper leaves the value open and we chose it (with the reason). Load with
+``load_config(path, overrides)``: a YAML file may set any subset of fields (unknown keys are
+errors), and ``overrides`` are ``section.field=value`` strings from the command line
+(``--set generator.bookshelf.board_width=0.8``), applied after the file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from drake_clutter.typed_yaml import InputError, apply_override, from_data, read_yaml_file, to_data
+
+
+class ConfigError(InputError):
+    """A configuration file or override is invalid."""
+
+
+@dataclass(frozen=True)
+class Range:
+    """A closed interval [low, high] sampled uniformly."""
+
+    low: float
+    high: float
+
+
+@dataclass(frozen=True)
+class BoxRanges:
+    """Uniform sampling ranges of a box's properties (Sec. VI-B: size, position, density)."""
+
+    footprint: Range = Range(0.04, 0.10)  # m, each horizontal side; ours (grocery-sized boxes)
+    height: Range = Range(0.06, 0.24)  # m; ours: tall thin boxes can topple (Sec. III)
+    density: Range = Range(150.0, 900.0)  # kg/m^3; ours: cereal-box to full-carton densities
+    friction: Range = Range(0.4, 0.8)  # Coulomb coefficient; ours (cardboard on wood)
+    yaw: Range = Range(-0.5, 0.5)  # rad about +z; ours (boxes roughly face the front)
+
+
+@dataclass(frozen=True)
+class EnvironmentConfig:
+    """One environment of Sec. VI-B: its board, walls and clutter levels."""
+
+    clutter_levels: tuple[int, ...]  # boxes per scene, the target included (Sec. VI-B)
+    board_depth: float  # m, along x (ours)
+    board_width: float  # m, along y (ours)
+    wall_thickness: float | None = None  # m; None = no walls (bookshelf, Sec. VI-B)
+    interior_height: float | None = None  # m, board top to ceiling (fridge only; ours)
+
+
+@dataclass(frozen=True)
+class GeneratorConfig:
+    """Random scene generation (Sec. VI-B)."""
+
+    bookshelf: EnvironmentConfig = EnvironmentConfig(
+        clutter_levels=(1, 5, 10, 15, 20, 25),  # Sec. VI-B: 6 bookshelf clutter levels
+        board_depth=0.40,  # ours: 25 boxes jam it (Sec. VI-B "nearly completely filled")
+        board_width=0.80,
+    )
+    fridge: EnvironmentConfig = EnvironmentConfig(
+        clutter_levels=(1, 2, 4, 6, 8, 10, 12, 14, 16),  # Sec. VI-B: 9 refrigerator levels
+        board_depth=0.40,  # ours: interior 0.38 x 0.56 after the walls; 16 boxes jam it
+        board_width=0.60,
+        wall_thickness=0.02,
+        interior_height=0.36,
+    )
+    scenes_per_level: int = 10  # Sec. VI-B: 10 random scenes per clutter level (150 in all)
+    paper_seed_base: int = 2015  # ours: seeds of the named 'paper' scene set
+    board_thickness: float = 0.03  # m; ours
+    board_top_height: float = 0.75  # m above the floor; ours (a waist-high shelf)
+    shelf_front_x: float = 0.40  # m, board front edge ahead of the robot base; ours
+    shoulder_above_board: float = 0.25  # m; ours: sets the torso lift from the board height
+    boxes: BoxRanges = BoxRanges()
+    target: BoxRanges = BoxRanges(  # ours: graspable by the 0.09 m PR2 gripper at any yaw
+        footprint=Range(0.04, 0.06), height=Range(0.10, 0.20), yaw=Range(-0.3, 0.3))
+    target_depth: Range = Range(0.05, 0.26)  # m behind the board front; ours: within reach
+    target_lateral: float = 0.18  # m, |y - shoulder y| of the target; ours: within reach
+    min_gap: float = 0.005  # m between generated boxes; ours (robust to rounding)
+    max_tries_per_box: int = 400  # rejection-sampling tries before a box's size is re-drawn
+    max_redraws_per_box: int = 60  # size re-draws before a scene attempt is abandoned
+    max_attempts: int = 20  # whole-scene attempts (same random stream) before giving up
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """Drake worlds: the kinematic planning world and the smooth-contact dynamics phi (Sec. V)."""
+
+    time_step: float = 0.01  # s, SAP step of phi; ours (ARCHITECTURE: 5.5 ms/step at 25 boxes)
+    hydroelastic_modulus: float = 1.0e6  # Pa, compliant boxes; ours (settles, ARCHITECTURE)
+    resolution_hint: float = 0.02  # m, compliant mesh resolution hint; ours
+    hunt_crossley_dissipation: float = 5.0  # s/m; ours
+    relaxation_time: float = 0.05  # s, SAP linear dissipation of the compliant boxes; ours
+    point_stiffness: float = 1.0e5  # N/m for point-contact fallback pairs; ours
+    arm_kp: float = 4000.0  # N m/rad (N/m for fingers) PD stiffness: the arm is kinematic (Sec. I)
+    arm_kd: float = 100.0  # N m s/rad PD damping; ours
+    park_configuration: tuple[float, ...] = (-1.9, 0.2, 0.0, -1.9, 0.0, -0.6, 0.0)  # rad; ours
+    park_gripper_opening: float = 0.09  # m; ours
+
+
+@dataclass(frozen=True)
+class Config:
+    """All settings of drake_clutter, one section per module."""
+
+    generator: GeneratorConfig = field(default_factory=GeneratorConfig)
+    world: WorldConfig = field(default_factory=WorldConfig)
+
+
+def config_to_data(config: Config) -> dict:
+    """The configuration as plain nested data (YAML-ready)."""
+    return to_data(config)
+
+
+def load_config(path: str | Path | None = None, overrides: list[str] | tuple = ()) -> Config:
+    """Defaults, then the YAML file at ``path`` (if any), then ``key=value`` overrides.
+
+    Raises ConfigError naming the file (or '<command line>'), the field and the reason.
+    """
+    data = config_to_data(Config())
+    if path is not None:
+        user = read_yaml_file(path, error_cls=ConfigError)
+        if user is not None:
+            if not isinstance(user, dict):
+                raise ConfigError(path, "", "a configuration must be a YAML mapping")
+            data = _merge(data, user, path)
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise ConfigError("<command line>", item, "expected key=value")
+        data = apply_override(data, key.strip(), value, error_cls=ConfigError)
+    return from_data(Config, data, file=path or "<command line>", error_cls=ConfigError)
+
+
+def _merge(base: dict, user: dict, file, prefix: str = "") -> dict:
+    out = dict(base)
+    for key, value in user.items():
+        where = f"{prefix}.{key}" if prefix else str(key)
+        if key not in base:
+            raise ConfigError(file, where, f"unknown key (known keys: {', '.join(base)})")
+        if isinstance(base[key], dict) and isinstance(value, dict):
+            out[key] = _merge(base[key], value, file, where)
+        else:
+            out[key] = value
+    return out

@@ -1,0 +1,63 @@
+"""Meshcat views: a scene with the parked arm, served live or written as static HTML.
+
+Everything goes through Drake's own Meshcat (``pydrake.geometry.Meshcat``), which serves on
+localhost from inside this process. No module-level Meshcat: callers create one and pass it,
+or let `show_scene` make its own.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from pydrake.geometry import Meshcat
+
+from drake_clutter.config import Config
+from drake_clutter.scenes import Scene
+from drake_clutter.typed_yaml import InputError
+from drake_clutter.world import build_planning_world, park_positions
+
+
+def publish_scene(scene: Scene, config: Config, meshcat: Meshcat,
+                  variant: str = "capsules", q_robot=None) -> None:
+    """Draws ``scene`` in ``meshcat`` with the arm at ``q_robot`` (default: parked)."""
+    world = build_planning_world(scene, variant, config.world, meshcat=meshcat)
+    context = world.diagram.CreateDefaultContext()
+    plant_context = world.plant.GetMyMutableContextFromRoot(context)
+    q = park_positions(world, config.world) if q_robot is None else q_robot
+    world.set_robot_positions(plant_context, q)
+    world.diagram.ForcedPublish(context)
+
+
+def write_static_html(meshcat: Meshcat, path: str | Path) -> Path:
+    """Writes Meshcat's current scene as a self-contained HTML file; returns the path."""
+    path = Path(path)
+    try:
+        path.write_text(meshcat.StaticHtml(), encoding="utf-8")
+    except OSError as exc:
+        raise InputError(path, "--html", f"cannot write the HTML file: {exc.strerror}") from None
+    return path
+
+
+def show_scene(scene: Scene, config: Config, variant: str = "capsules",
+               html: str | Path | None = None, wait: bool = True) -> Meshcat:
+    """Shows a scene and the parked arm in Meshcat and prints the URL.
+
+    With ``html`` the view is written to that file instead. With ``wait`` the function keeps
+    serving until interrupted (Ctrl-C).
+    """
+    meshcat = Meshcat()
+    publish_scene(scene, config, meshcat, variant)
+    if html is not None:
+        path = write_static_html(meshcat, html)
+        print(f"wrote {path}")
+        return meshcat
+    print(f"Meshcat: {meshcat.web_url()}  (scene '{scene.name}')", flush=True)
+    if wait:
+        print("serving; press Ctrl-C to stop", flush=True)
+        try:
+            while True:
+                time.sleep(1.0)
+        except KeyboardInterrupt:
+            pass
+    return meshcat

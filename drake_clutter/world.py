@@ -1,0 +1,278 @@
+"""Drake worlds built from a `Scene`: the kinematic planning world and the dynamics world phi.
+
+Notation (Drake monogram): ``X_WB`` is the pose of frame B in the world frame W, ``p_WB`` a
+position; metres, radians, seconds. W is the scene's world frame (see `scenes`).
+
+* `build_planning_world` - a continuous MultibodyPlant + SceneGraph for IK and distance
+  queries (Sec. IV): the PR2 base welded at the scene's placement, the torso welded at the
+  scene's lift (the prismatic torso joint is removed), the shelf welded, every box a free body
+  at its resting pose. Collision filters leave only arm-vs-obstacle pairs: the robot's own
+  links, box-box and box-shelf pairs are filtered out.
+* `build_dynamics_world` - phi of Sec. V: a discrete SAP plant with compliant-hydroelastic
+  boxes on a rigid shelf; every arm and finger joint has a stiff PD actuator that tracks the
+  desired state fed to the plant's desired-state port (the arm is kinematic in the paper;
+  stiff implicit PD is its stand-in, and the robot feels no gravity). Stepping is a direct
+  discrete update of the plant context (no Simulator).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import (
+    AddCompliantHydroelasticProperties,
+    AddContactMaterial,
+    Box,
+    CollisionFilterDeclaration,
+    GeometrySet,
+    ProximityProperties,
+    Role,
+)
+from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.multibody.plant import (
+    ContactModel,
+    CoulombFriction,
+    DiscreteContactApproximation,
+    MultibodyPlant,
+)
+from pydrake.multibody.tree import ModelInstanceIndex, PdControllerGains, SpatialInertia
+from pydrake.planning import RobotDiagram, RobotDiagramBuilder
+from pydrake.systems.framework import Context
+
+from drake_clutter import robot_model
+from drake_clutter.config import WorldConfig
+from drake_clutter.scenes import BoxObject, Scene
+from drake_clutter.shelf_model import SHELF_LINK, shelf_sdf
+
+ROBOT_JOINTS = robot_model.ARM_JOINTS + robot_model.FINGER_JOINTS
+
+
+@dataclass
+class World:
+    """A built Drake world: the diagram, its plant and the handles the planners need."""
+
+    scene: Scene
+    variant: str
+    diagram: RobotDiagram
+    plant: MultibodyPlant
+    robot: ModelInstanceIndex
+    shelf: ModelInstanceIndex
+    boxes: ModelInstanceIndex
+    box_names: tuple[str, ...]
+
+    @property
+    def scene_graph(self):
+        """The SceneGraph of the diagram."""
+        return self.diagram.scene_graph()
+
+    @property
+    def tool_frame(self):
+        """The gripper's tool frame (between the fingertips, Sec. III's pre-grasp point)."""
+        return self.plant.GetFrameByName(robot_model.TOOL_FRAME, self.robot)
+
+    def box_body(self, name: str):
+        """The free body of a scene box."""
+        return self.plant.GetBodyByName(name, self.boxes)
+
+    def joint_position_index(self, joint_name: str) -> int:
+        """Index of a robot joint's position in the plant's full position vector."""
+        return self.plant.GetJointByName(joint_name, self.robot).position_start()
+
+    def robot_q(self, arm_q, opening: float) -> np.ndarray:
+        """Robot position vector (ROBOT_JOINTS order) from 7 arm angles and a gripper gap (m)."""
+        finger = robot_model.finger_joint_position(opening)
+        return np.concatenate([np.asarray(arm_q, dtype=float), [finger, finger]])
+
+    def set_robot_positions(self, plant_context: Context, q_robot) -> None:
+        """Sets the 9 robot joint positions (ROBOT_JOINTS order) in a plant context."""
+        for name, value in zip(ROBOT_JOINTS, q_robot, strict=True):
+            self.plant.GetJointByName(name, self.robot).set_position(plant_context, value)
+
+    def X_WBox(self, plant_context: Context, name: str) -> RigidTransform:
+        """Pose of a box in W."""
+        return self.plant.EvalBodyPoseInWorld(plant_context, self.box_body(name))
+
+
+def box_rest_pose(scene: Scene, box: BoxObject) -> RigidTransform:
+    """X_WB of a box resting on the board at its planar pose."""
+    x, y, yaw = box.pose
+    return RigidTransform(RollPitchYaw(0, 0, yaw), [x, y, scene.box_center_z(box)])
+
+
+def _add_robot(builder: RobotDiagramBuilder, scene: Scene, variant: str) -> ModelInstanceIndex:
+    plant = builder.plant()
+    (robot,) = builder.parser().AddModelsFromString(robot_model.urdf_text(variant), "urdf")
+    x, y, yaw = scene.robot.base_pose
+    base = plant.GetFrameByName(robot_model.BASE_LINK, robot)
+    plant.WeldFrames(plant.world_frame(), base, RigidTransform(RollPitchYaw(0, 0, yaw),
+                                                               [x, y, 0.0]))
+    torso_joint = plant.GetJointByName(robot_model.TORSO_JOINT, robot)
+    torso_child = torso_joint.child_body().body_frame()
+    plant.RemoveJoint(torso_joint)
+    plant.WeldFrames(base, torso_child,
+                     RigidTransform(robot_model.X_BaseTorso(scene.robot.torso_height)))
+    return robot
+
+
+def _add_shelf(builder: RobotDiagramBuilder, scene: Scene) -> ModelInstanceIndex:
+    plant = builder.plant()
+    (shelf,) = builder.parser().AddModelsFromString(shelf_sdf(scene.shelf), "sdf")
+    cx, cy = scene.shelf.center_xy
+    plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(SHELF_LINK, shelf),
+                     RigidTransform([cx, cy, scene.shelf.top_height]))
+    return shelf
+
+
+def _box_proximity(box: BoxObject, config: WorldConfig, compliant: bool) -> ProximityProperties:
+    props = ProximityProperties()
+    AddContactMaterial(dissipation=config.hunt_crossley_dissipation,
+                       point_stiffness=config.point_stiffness,
+                       friction=CoulombFriction(box.friction, box.friction), properties=props)
+    if compliant:
+        AddCompliantHydroelasticProperties(config.resolution_hint, config.hydroelastic_modulus,
+                                           props)
+        props.AddProperty("material", "relaxation_time", config.relaxation_time)
+    return props
+
+
+def _add_boxes(builder: RobotDiagramBuilder, scene: Scene, config: WorldConfig,
+               compliant: bool) -> ModelInstanceIndex:
+    plant = builder.plant()
+    instance = plant.AddModelInstance("boxes")
+    for box in scene.boxes:
+        inertia = SpatialInertia.SolidBoxWithMass(box.mass, *box.size)
+        body = plant.AddRigidBody(box.name, instance, inertia)
+        shape = Box(*box.size)
+        plant.RegisterCollisionGeometry(body, RigidTransform(), shape, f"{box.name}_collision",
+                                        _box_proximity(box, config, compliant))
+        plant.RegisterVisualGeometry(body, RigidTransform(), shape, f"{box.name}_visual",
+                                     np.asarray(box.color))
+        plant.SetDefaultFloatingBaseBodyPose(body, box_rest_pose(scene, box))
+    return instance
+
+
+def _geometries(plant: MultibodyPlant, instance: ModelInstanceIndex) -> GeometrySet:
+    ids = []
+    for index in plant.GetBodyIndices(instance):
+        ids += plant.GetCollisionGeometriesForBody(plant.get_body(index))
+    return GeometrySet(ids)
+
+
+def _filter_non_arm_pairs(world_parts: dict, plant: MultibodyPlant, scene_graph) -> None:
+    """Leaves only robot-vs-(shelf, box) collision pairs in the planning world."""
+    robot = _geometries(plant, world_parts["robot"])
+    obstacles = _geometries(plant, world_parts["shelf"])
+    obstacles.Add(_geometries(plant, world_parts["boxes"]))
+    manager = scene_graph.collision_filter_manager()
+    manager.Apply(CollisionFilterDeclaration().ExcludeWithin(robot).ExcludeWithin(obstacles))
+
+
+def _new_world(builder: RobotDiagramBuilder, scene: Scene, variant: str, config: WorldConfig,
+               compliant: bool) -> dict:
+    if variant not in robot_model.VARIANTS:
+        raise ValueError(f"unknown geometry variant {variant!r} ({', '.join(robot_model.VARIANTS)})")
+    return {"robot": _add_robot(builder, scene, variant), "shelf": _add_shelf(builder, scene),
+            "boxes": _add_boxes(builder, scene, config, compliant)}
+
+
+def build_planning_world(scene: Scene, variant: str = "capsules",
+                         config: WorldConfig | None = None, meshcat=None) -> World:
+    """The kinematic planning world (continuous plant) of ``scene`` with an arm geometry variant.
+
+    With ``meshcat`` (a pydrake Meshcat), illustration geometry is drawn there on publish.
+    """
+    config = config or WorldConfig()
+    builder = RobotDiagramBuilder(time_step=0.0)
+    parts = _new_world(builder, scene, variant, config, compliant=False)
+    plant = builder.plant()
+    plant.Finalize()
+    _filter_non_arm_pairs(parts, plant, builder.scene_graph())
+    if meshcat is not None:
+        _add_meshcat(builder, meshcat)
+    diagram = builder.Build()
+    return World(scene, variant, diagram, plant, parts["robot"], parts["shelf"], parts["boxes"],
+                 tuple(b.name for b in scene.boxes))
+
+
+def _add_meshcat(builder: RobotDiagramBuilder, meshcat) -> None:
+    from pydrake.visualization import AddDefaultVisualization
+
+    AddDefaultVisualization(builder.builder(), meshcat=meshcat)
+
+
+def _add_pd_actuators(plant: MultibodyPlant, robot: ModelInstanceIndex,
+                      config: WorldConfig) -> None:
+    for name in ROBOT_JOINTS:
+        joint = plant.GetJointByName(name, robot)
+        actuator = plant.AddJointActuator(f"{name}_pd", joint)
+        actuator.set_controller_gains(PdControllerGains(p=config.arm_kp, d=config.arm_kd))
+
+
+def build_dynamics_world(scene: Scene, variant: str = "capsules",
+                         config: WorldConfig | None = None, meshcat=None) -> World:
+    """phi's world: discrete SAP, hydroelastic compliant boxes, rigid shelf, PD-tracked arm."""
+    config = config or WorldConfig()
+    builder = RobotDiagramBuilder(time_step=config.time_step)
+    plant = builder.plant()
+    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
+    plant.set_contact_model(ContactModel.kHydroelasticWithFallback)
+    parts = _new_world(builder, scene, variant, config, compliant=True)
+    plant.set_gravity_enabled(parts["robot"], False)
+    _add_pd_actuators(plant, parts["robot"], config)
+    plant.SetUseSampledOutputPorts(False)
+    plant.Finalize()
+    robot_geometry = _geometries(plant, parts["robot"])
+    builder.scene_graph().collision_filter_manager().Apply(
+        CollisionFilterDeclaration().ExcludeWithin(robot_geometry))
+    if meshcat is not None:
+        _add_meshcat(builder, meshcat)
+    diagram = builder.Build()
+    return World(scene, variant, diagram, plant, parts["robot"], parts["shelf"], parts["boxes"],
+                 tuple(b.name for b in scene.boxes))
+
+
+def park_positions(world: World, config: WorldConfig) -> np.ndarray:
+    """Robot positions (ROBOT_JOINTS order) of the parked arm: outside the shelf, gripper open."""
+    return world.robot_q(config.park_configuration, config.park_gripper_opening)
+
+
+def set_desired_robot_state(world: World, plant_context: Context, q_desired,
+                            v_desired=None) -> None:
+    """Feeds the PD actuators' desired state (ROBOT_JOINTS order) in a dynamics world."""
+    q_desired = np.asarray(q_desired, dtype=float)
+    v_desired = np.zeros_like(q_desired) if v_desired is None else np.asarray(v_desired)
+    port = world.plant.get_desired_state_input_port(world.robot)
+    port.FixValue(plant_context, np.concatenate([q_desired, v_desired]))
+
+
+def new_dynamics_context(world: World, q_robot) -> Context:
+    """A root (diagram) context of a dynamics world: the robot at rest at ``q_robot`` and told
+    to stay there, zero feed-forward actuation, the boxes at their resting poses."""
+    root = world.diagram.CreateDefaultContext()
+    plant = world.plant
+    context = plant.GetMyMutableContextFromRoot(root)
+    world.set_robot_positions(context, q_robot)
+    plant.get_actuation_input_port().FixValue(context, np.zeros(plant.num_actuated_dofs()))
+    set_desired_robot_state(world, context, q_robot)
+    return root
+
+
+def step(world: World, root_context: Context, num_steps: int = 1) -> None:
+    """Advances a dynamics world by ``num_steps`` SAP steps of ``time_step`` (root context)."""
+    plant = world.plant
+    context = plant.GetMyMutableContextFromRoot(root_context)
+    for _ in range(num_steps):
+        state = plant.EvalUniquePeriodicDiscreteUpdate(context)
+        context.SetDiscreteState(state.value())
+        root_context.SetTime(root_context.get_time() + plant.time_step())
+
+
+def robot_geometry_names(world: World, role: Role = Role.kProximity) -> list[str]:
+    """Names of the robot's geometries with ``role`` (for checks and debugging)."""
+    inspector = world.scene_graph.model_inspector()
+    ids = []
+    for index in world.plant.GetBodyIndices(world.robot):
+        frame_id = world.plant.GetBodyFrameIdOrThrow(index)
+        ids += inspector.GetGeometries(frame_id, role)
+    return [inspector.GetName(g) for g in ids]

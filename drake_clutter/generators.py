@@ -72,7 +72,7 @@ def make_shelf(config: GeneratorConfig, kind: ShelfKind) -> Shelf:
     return Shelf(
         kind=kind, depth=env.board_depth, width=env.board_width, thickness=config.board_thickness,
         top_height=config.board_top_height,
-        center_xy=(config.shelf_front_x + env.board_depth / 2, 0.0), walls=walls)
+        center_xy=(round(config.shelf_front_x + env.board_depth / 2, 6), 0.0), walls=walls)
 
 
 def make_robot_placement(config: GeneratorConfig) -> RobotPlacement:

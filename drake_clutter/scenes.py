@@ -129,7 +129,7 @@ class Provenance:
 
     generator: str = "hand"
     seed: int | None = None
-    parameters: dict[str, float | int | str] = field(default_factory=dict)
+    parameters: dict[str, int | float | str] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,7 @@ from pydrake.multibody.plant import (
     DiscreteContactApproximation,
     MultibodyPlant,
 )
-from pydrake.multibody.tree import ModelInstanceIndex, PdControllerGains, SpatialInertia
+from pydrake.multibody.tree import JointActuatorIndex, ModelInstanceIndex, PdControllerGains, SpatialInertia
 from pydrake.planning import RobotDiagram, RobotDiagramBuilder
 from pydrake.systems.framework import Context
 
@@ -86,8 +86,17 @@ class World:
 
     def set_robot_positions(self, plant_context: Context, q_robot) -> None:
         """Sets the 9 robot joint positions (ROBOT_JOINTS order) in a plant context."""
-        for name, value in zip(ROBOT_JOINTS, q_robot, strict=True):
-            self.plant.GetJointByName(name, self.robot).set_position(plant_context, value)
+        q = self.plant.GetPositions(plant_context)
+        q[self.robot_position_indices()] = q_robot
+        self.plant.SetPositions(plant_context, q)
+
+    def robot_position_indices(self) -> np.ndarray:
+        """Indices of the ROBOT_JOINTS positions in the plant's full position vector."""
+        return np.array([self.joint_position_index(name) for name in ROBOT_JOINTS])
+
+    def robot_positions(self, plant_context: Context) -> np.ndarray:
+        """The 9 robot joint positions (ROBOT_JOINTS order) of a plant context."""
+        return self.plant.GetPositions(plant_context)[self.robot_position_indices()]
 
     def X_WBox(self, plant_context: Context, name: str) -> RigidTransform:
         """Pose of a box in W."""
@@ -100,6 +109,19 @@ def box_rest_pose(scene: Scene, box: BoxObject) -> RigidTransform:
     return RigidTransform(RollPitchYaw(0, 0, yaw), [x, y, scene.box_center_z(box)])
 
 
+def _actuators(plant: MultibodyPlant, instance: ModelInstanceIndex) -> list:
+    """The joint actuators of a model instance (works before Finalize, unlike
+    GetJointActuatorIndices)."""
+    found = []
+    for i in range(plant.num_actuators() + 16):  # indices of removed actuators are skipped
+        index = JointActuatorIndex(i)
+        if plant.has_joint_actuator(index):
+            actuator = plant.get_joint_actuator(index)
+            if actuator.model_instance() == instance:
+                found.append(actuator)
+    return found
+
+
 def _add_robot(builder: RobotDiagramBuilder, scene: Scene, variant: str) -> ModelInstanceIndex:
     plant = builder.plant()
     (robot,) = builder.parser().AddModelsFromString(robot_model.urdf_text(variant), "urdf")
@@ -109,6 +131,9 @@ def _add_robot(builder: RobotDiagramBuilder, scene: Scene, variant: str) -> Mode
                                                                [x, y, 0.0]))
     torso_joint = plant.GetJointByName(robot_model.TORSO_JOINT, robot)
     torso_child = torso_joint.child_body().body_frame()
+    for actuator in _actuators(plant, robot):
+        if actuator.joint().name() == robot_model.TORSO_JOINT:
+            plant.RemoveJointActuator(actuator)
     plant.RemoveJoint(torso_joint)
     plant.WeldFrames(base, torso_child,
                      RigidTransform(robot_model.X_BaseTorso(scene.robot.torso_height)))
@@ -152,18 +177,18 @@ def _add_boxes(builder: RobotDiagramBuilder, scene: Scene, config: WorldConfig,
     return instance
 
 
-def _geometries(plant: MultibodyPlant, instance: ModelInstanceIndex) -> GeometrySet:
+def _geometries(plant: MultibodyPlant, *instances: ModelInstanceIndex) -> GeometrySet:
     ids = []
-    for index in plant.GetBodyIndices(instance):
-        ids += plant.GetCollisionGeometriesForBody(plant.get_body(index))
+    for instance in instances:
+        for index in plant.GetBodyIndices(instance):
+            ids += plant.GetCollisionGeometriesForBody(plant.get_body(index))
     return GeometrySet(ids)
 
 
 def _filter_non_arm_pairs(world_parts: dict, plant: MultibodyPlant, scene_graph) -> None:
     """Leaves only robot-vs-(shelf, box) collision pairs in the planning world."""
     robot = _geometries(plant, world_parts["robot"])
-    obstacles = _geometries(plant, world_parts["shelf"])
-    obstacles.Add(_geometries(plant, world_parts["boxes"]))
+    obstacles = _geometries(plant, world_parts["shelf"], world_parts["boxes"])
     manager = scene_graph.collision_filter_manager()
     manager.Apply(CollisionFilterDeclaration().ExcludeWithin(robot).ExcludeWithin(obstacles))
 
@@ -201,11 +226,18 @@ def _add_meshcat(builder: RobotDiagramBuilder, meshcat) -> None:
     AddDefaultVisualization(builder.builder(), meshcat=meshcat)
 
 
-def _add_pd_actuators(plant: MultibodyPlant, robot: ModelInstanceIndex,
-                      config: WorldConfig) -> None:
+def _make_pd_actuators(plant: MultibodyPlant, robot: ModelInstanceIndex,
+                       config: WorldConfig) -> None:
+    """Turns the URDF's actuators into stiff PD servos without effort limits.
+
+    The paper's arm is kinematic (Sec. I); the PR2's real 30 N m limits would let boxes stop
+    the arm, so phi lifts them. The evaluation in Bullet is where real limits belong.
+    """
+    by_joint = {a.joint().name(): a for a in _actuators(plant, robot)}
     for name in ROBOT_JOINTS:
-        joint = plant.GetJointByName(name, robot)
-        actuator = plant.AddJointActuator(f"{name}_pd", joint)
+        actuator = by_joint.get(name) or plant.AddJointActuator(
+            f"{name}_motor", plant.GetJointByName(name, robot))
+        actuator.set_effort_limit(np.inf)
         actuator.set_controller_gains(PdControllerGains(p=config.arm_kp, d=config.arm_kd))
 
 
@@ -219,7 +251,7 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
     plant.set_contact_model(ContactModel.kHydroelasticWithFallback)
     parts = _new_world(builder, scene, variant, config, compliant=True)
     plant.set_gravity_enabled(parts["robot"], False)
-    _add_pd_actuators(plant, parts["robot"], config)
+    _make_pd_actuators(plant, parts["robot"], config)
     plant.SetUseSampledOutputPorts(False)
     plant.Finalize()
     robot_geometry = _geometries(plant, parts["robot"])

@@ -17,6 +17,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+from drake_clutter.generators import GenerationError
 from drake_clutter.typed_yaml import InputError
 
 EXIT_USAGE = 2
@@ -33,7 +34,8 @@ class _OneLineParser(argparse.ArgumentParser):
 def _add_config_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", help="YAML file overriding the default configuration")
     parser.add_argument("--set", dest="overrides", action="append", default=[],
-                        metavar="KEY=VALUE", help="override one setting, e.g. world.time_step=0.005")
+                        metavar="KEY=VALUE",
+                        help="override one setting, e.g. world.time_step=0.005")
 
 
 def _load_config(args):
@@ -143,6 +145,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except InputError as exc:
         print(f"drake-clutter: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except GenerationError as exc:
+        print(f"drake-clutter: error: scene generation failed: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         return 130
 

@@ -90,7 +90,7 @@ class WorldConfig:
     hydroelastic_modulus: float = 1.0e6  # Pa, compliant boxes; ours (settles, ARCHITECTURE)
     resolution_hint: float = 0.02  # m, compliant mesh resolution hint; ours
     hunt_crossley_dissipation: float = 5.0  # s/m; ours
-    relaxation_time: float = 0.05  # s, SAP linear dissipation of the compliant boxes; ours
+    relaxation_time: float = 0.1  # s, SAP dissipation (Drake default); 0.05 let boxes creep 1 mm
     point_stiffness: float = 1.0e5  # N/m for point-contact fallback pairs; ours
     arm_kp: float = 4000.0  # N m/rad (N/m for fingers) PD stiffness: the arm is kinematic (Sec. I)
     arm_kd: float = 100.0  # N m s/rad PD damping; ours

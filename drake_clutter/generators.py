@@ -64,7 +64,7 @@ def environment(config: GeneratorConfig, kind: ShelfKind) -> EnvironmentConfig:
 
 
 def make_shelf(config: GeneratorConfig, kind: ShelfKind) -> Shelf:
-    """The generator's shelf of the given kind, its front edge ``shelf_front_x`` ahead of the robot."""
+    """The generator's shelf of a kind, its front edge ``shelf_front_x`` ahead of the robot."""
     env = environment(config, kind)
     walls = None
     if env.wall_thickness is not None:
@@ -81,7 +81,10 @@ def make_robot_placement(config: GeneratorConfig) -> RobotPlacement:
     lo, hi = robot_model.TORSO_LIMITS
     torso = config.board_top_height + config.shoulder_above_board
     torso -= robot_model.SHOULDER_PAN_HEIGHT_AT_ZERO_TORSO
-    return RobotPlacement(base_pose=(0.0, 0.188, 0.0), torso_height=round(min(hi, max(lo, torso)), 4))
+    torso = round(min(hi, max(lo, torso)), 4)
+    # Shift the base sideways so that the right shoulder-pan axis lies at y = 0 (board centre).
+    shoulder_y = shoulder_xy(RobotPlacement((0.0, 0.0, 0.0), torso))[1]
+    return RobotPlacement(base_pose=(0.0, round(-float(shoulder_y), 6), 0.0), torso_height=torso)
 
 
 def shoulder_xy(robot: RobotPlacement) -> np.ndarray:
@@ -147,7 +150,8 @@ class _FreeSpace:
             else np.zeros(self.shape, dtype=bool)
         x, y = self.centres[..., 0], self.centres[..., 1]
         (rx0, rx1), (ry0, ry1) = region
-        ok = ~blocked & (x >= max(rx0, self.x0 + half[0])) & (x <= min(rx1, self.bounds[1] - half[0]))
+        ok = ~blocked & (x >= max(rx0, self.x0 + half[0]))
+        ok &= x <= min(rx1, self.bounds[1] - half[0])
         ok &= (y >= max(ry0, self.y0 + half[1])) & (y <= min(ry1, self.bounds[3] - half[1]))
         return self.centres[ok]
 

@@ -308,7 +308,10 @@ def save_scene(scene: Scene, path: str | Path) -> Path:
     """Validates and writes the scene as YAML; returns the path."""
     validate_scene(scene, path)
     path = Path(path)
-    path.write_text(scene_to_text(scene), encoding="utf-8")
+    try:
+        path.write_text(scene_to_text(scene), encoding="utf-8")
+    except OSError as exc:
+        raise SceneError(path, "", f"cannot write the scene file: {exc.strerror}") from None
     return path
 
 

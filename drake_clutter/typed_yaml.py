@@ -113,7 +113,8 @@ class _Converter:
             return tuple(self.convert(args[0], v, f"{field}[{i}]") for i, v in enumerate(value))
         if len(value) != len(args):
             self.fail(field, f"must have {len(args)} entries, got {len(value)}")
-        return tuple(self.convert(a, v, f"{field}[{i}]") for i, (a, v) in enumerate(zip(args, value)))
+        return tuple(self.convert(a, v, f"{field}[{i}]")
+                     for i, (a, v) in enumerate(zip(args, value, strict=True)))
 
     def mapping(self, tp: Any, value: Any, field: str) -> dict:
         key_tp, value_tp = get_args(tp)

@@ -7,6 +7,8 @@ or let `show_scene` make its own.
 
 from __future__ import annotations
 
+import base64
+import re
 import time
 from pathlib import Path
 
@@ -37,6 +39,18 @@ def write_static_html(meshcat: Meshcat, path: str | Path) -> Path:
     except OSError as exc:
         raise InputError(path, "--html", f"cannot write the HTML file: {exc.strerror}") from None
     return path
+
+
+_EMBEDDED = re.compile(r'fetch\("data:application/octet-binary;base64,([A-Za-z0-9+/=]+)"\)')
+_PATH = re.compile(rb"/drake/[A-Za-z0-9_/.\-]+")
+
+
+def static_html_paths(html: str) -> set[str]:
+    """The Meshcat scene-tree paths that a static HTML file draws (for checks and tests)."""
+    paths: set[str] = set()
+    for blob in _EMBEDDED.findall(html):
+        paths.update(p.decode() for p in _PATH.findall(base64.b64decode(blob)))
+    return paths
 
 
 def show_scene(scene: Scene, config: Config, variant: str = "capsules",

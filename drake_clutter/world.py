@@ -36,7 +36,12 @@ from pydrake.multibody.plant import (
     DiscreteContactApproximation,
     MultibodyPlant,
 )
-from pydrake.multibody.tree import JointActuatorIndex, ModelInstanceIndex, PdControllerGains, SpatialInertia
+from pydrake.multibody.tree import (
+    JointActuatorIndex,
+    ModelInstanceIndex,
+    PdControllerGains,
+    SpatialInertia,
+)
 from pydrake.planning import RobotDiagram, RobotDiagramBuilder
 from pydrake.systems.framework import Context
 
@@ -196,7 +201,8 @@ def _filter_non_arm_pairs(world_parts: dict, plant: MultibodyPlant, scene_graph)
 def _new_world(builder: RobotDiagramBuilder, scene: Scene, variant: str, config: WorldConfig,
                compliant: bool) -> dict:
     if variant not in robot_model.VARIANTS:
-        raise ValueError(f"unknown geometry variant {variant!r} ({', '.join(robot_model.VARIANTS)})")
+        known = ", ".join(robot_model.VARIANTS)
+        raise ValueError(f"unknown geometry variant {variant!r} ({known})")
     return {"robot": _add_robot(builder, scene, variant), "shelf": _add_shelf(builder, scene),
             "boxes": _add_boxes(builder, scene, config, compliant)}
 

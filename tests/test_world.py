@@ -1,0 +1,114 @@
+"""Drake worlds: planning world and the smooth-contact dynamics phi (built and stepped)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from pydrake.multibody.plant import DiscreteContactApproximation
+
+from drake_clutter import robot_model
+from drake_clutter.config import WorldConfig
+from drake_clutter.generators import generate_scene
+from drake_clutter.scenes import load_shipped_scene
+from drake_clutter.shelf_model import default_shelves, shelf_sdf
+from drake_clutter.world import (
+    ROBOT_JOINTS,
+    build_dynamics_world,
+    build_planning_world,
+    new_dynamics_context,
+    park_positions,
+    set_desired_robot_state,
+    step,
+)
+
+
+@pytest.fixture(scope="module")
+def dense_scene():
+    return generate_scene("bookshelf", 25, seed=0)
+
+
+def test_checked_in_shelf_sdfs_match_generator():
+    for kind, shelf in default_shelves().items():
+        with open(robot_model.repo_root() / "sdf" / f"{kind}.sdf", encoding="utf-8") as f:
+            assert f.read() == shelf_sdf(shelf), f"sdf/{kind}.sdf is stale: regenerate it"
+
+
+@pytest.mark.parametrize("variant", robot_model.VARIANTS)
+def test_planning_world_has_arm_boxes_and_welded_torso(variant):
+    scene = load_shipped_scene("fig7_cascade")
+    world = build_planning_world(scene, variant)
+    plant = world.plant
+    assert plant.num_positions() == 9 + 7 * len(scene.boxes)  # 9 robot joints + free boxes
+    assert not plant.HasJointNamed(robot_model.TORSO_JOINT)
+    context = plant.CreateDefaultContext()
+    # The shoulder-pan axis sits at the torso height the scene asks for.
+    X_WS = plant.GetFrameByName("r_shoulder_pan_link").CalcPoseInWorld(context)
+    expected_z = robot_model.SHOULDER_PAN_HEIGHT_AT_ZERO_TORSO + scene.robot.torso_height
+    assert X_WS.translation()[2] == pytest.approx(expected_z, abs=1e-9)
+    for box in scene.boxes:
+        p = world.X_WBox(context, box.name).translation()
+        assert p == pytest.approx([box.pose[0], box.pose[1], scene.box_center_z(box)], abs=1e-12)
+
+
+def _arm_obstacle_distances(world, q_robot):
+    context = world.diagram.CreateDefaultContext()
+    plant_context = world.plant.GetMyMutableContextFromRoot(context)
+    world.set_robot_positions(plant_context, q_robot)
+    query = world.plant.get_geometry_query_input_port().Eval(plant_context)
+    return query.ComputeSignedDistancePairwiseClosestPoints(max_distance=10.0)
+
+
+def test_planning_world_only_reports_arm_obstacle_pairs(dense_scene):
+    world = build_planning_world(dense_scene, "capsules")
+    pairs = _arm_obstacle_distances(world, park_positions(world, WorldConfig()))
+    inspector = world.scene_graph.model_inspector()
+    robot_frames = {world.plant.GetBodyFrameIdOrThrow(i)
+                    for i in world.plant.GetBodyIndices(world.robot)}
+    assert pairs
+    for pair in pairs:
+        in_robot = [inspector.GetFrameId(g) in robot_frames for g in (pair.id_A, pair.id_B)]
+        assert sum(in_robot) == 1, "only arm-vs-obstacle pairs survive the filters"
+
+
+@pytest.mark.parametrize("kind", ["bookshelf", "fridge"])
+def test_parked_arm_is_clear_of_shelf_and_boxes(kind):
+    scene = generate_scene(kind, 10, seed=4)
+    world = build_planning_world(scene, "evaluation")
+    pairs = _arm_obstacle_distances(world, park_positions(world, WorldConfig()))
+    assert min(p.distance for p in pairs) > 0.05
+
+
+def test_dynamics_world_is_sap_with_pd_servos(dense_scene):
+    world = build_dynamics_world(dense_scene)
+    plant = world.plant
+    assert plant.get_discrete_contact_approximation() == DiscreteContactApproximation.kSap
+    assert plant.num_actuated_dofs() == len(ROBOT_JOINTS)
+    assert not plant.is_gravity_enabled(world.robot)
+
+
+def test_phi_with_parked_arm_keeps_boxes_still_for_one_second(dense_scene):
+    config = WorldConfig()
+    world = build_dynamics_world(dense_scene, config=config)
+    q_park = park_positions(world, config)
+    root = new_dynamics_context(world, q_park)
+    plant_context = world.plant.GetMyContextFromRoot(root)
+    before = {n: world.X_WBox(plant_context, n).translation() for n in world.box_names}
+    step(world, root, round(1.0 / config.time_step))
+    assert root.get_time() == pytest.approx(1.0)
+    moved = max(np.linalg.norm(world.X_WBox(plant_context, n).translation() - before[n])
+                for n in world.box_names)
+    assert moved < 1e-3
+    np.testing.assert_allclose(world.robot_positions(plant_context), q_park, atol=1e-6)
+
+
+def test_phi_pd_servos_track_a_new_target():
+    scene = generate_scene("fridge", 1, seed=0)
+    config = WorldConfig()
+    world = build_dynamics_world(scene, config=config)
+    q_park = park_positions(world, config)
+    root = new_dynamics_context(world, q_park)
+    plant_context = world.plant.GetMyMutableContextFromRoot(root)
+    goal = q_park + np.array([0.2, -0.1, 0.1, 0.2, 0.3, 0.2, -0.3, -0.01, -0.01])
+    set_desired_robot_state(world, plant_context, goal)
+    step(world, root, 100)
+    np.testing.assert_allclose(world.robot_positions(plant_context), goal, atol=2e-3)

@@ -12,6 +12,7 @@ import re
 import time
 from pathlib import Path
 
+import numpy as np
 from pydrake.geometry import Meshcat
 
 from drake_clutter.config import Config
@@ -29,6 +30,14 @@ def publish_scene(scene: Scene, config: Config, meshcat: Meshcat,
     q = park_positions(world, config.world) if q_robot is None else q_robot
     world.set_robot_positions(plant_context, q)
     world.diagram.ForcedPublish(context)
+    look_at_shelf(meshcat, scene)
+
+
+def look_at_shelf(meshcat: Meshcat, scene: Scene) -> None:
+    """Points Meshcat's camera at the shelf from behind and to the right of the robot."""
+    cx, cy = scene.shelf.center_xy
+    target = np.array([cx, cy, scene.shelf.top_height])
+    meshcat.SetCameraPose(target + np.array([-0.6, -1.5, 0.8]), target)
 
 
 def write_static_html(meshcat: Meshcat, path: str | Path) -> Path:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
 
 from drake_clutter.typed_yaml import InputError, apply_override, from_data, read_yaml_file, to_data
 
@@ -99,11 +100,71 @@ class WorldConfig:
 
 
 @dataclass(frozen=True)
+class BaselineConfig:
+    """The baseline planner (Sec. IV): approach angles, IK, swept-volume optimisation."""
+
+    num_angles: int = 14  # Sec. VI-B: 14 approach angles per scene
+    alpha_min: float = -1.0  # rad, about +z from the +x approach; ours (Sec. IV leaves it open)
+    alpha_max: float = 1.0  # rad; ours
+    num_knots: int = 30  # knots of a trajectory, start and pre-grasp included; ours
+    knot_time: float = 0.2  # s between knots (a 5.8 s reach); ours: slow arm (Sec. I)
+    w_static_hull: float = 80.0  # Sec. IV: weight of c_static_hull
+    w_vel: float = 1.0  # Sec. IV: weight of c_vel
+    d_safe: float = 0.02  # m, penetration margin of the collision costs (Table I); ours
+    check_substeps: int = 10  # dense check samples per knot interval (issue 3)
+    check_tolerance: float = 0.001  # m of penetration the dense check accepts (issue 3)
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """Hard-contact replay in Bullet and outcome classification (Sec. III)."""
+
+    sim_dt: float = 1.0 / 240.0  # s, Bullet step; ours (Bullet's default rate)
+    settle_time_cap: float = 3.0  # s simulated after the last knot at most; ours
+    rest_speed: float = 0.01  # m/s: every box slower than this counts as at rest; ours
+    max_tilt: float = 0.35  # rad (20 deg): a box tilted more has tipped over (Sec. III); ours
+
+
+@dataclass(frozen=True)
+class DynamicsConfig:
+    """phi as iLQR's dynamics and its derivatives (Sec. V)."""
+
+    fd_step: float = 1e-6  # Sec. V: finite-difference step
+    fd_scheme: Literal["forward", "central"] = "forward"  # Sec. V uses forward differences
+    prune_margin: float = 0.05  # m around the arm's swept volume; ours (Sec. I: affected boxes)
+    derivative_stride: int = 1  # compute A_t, B_t every k-th knot and interpolate; 1 = all
+    workers: int = 2  # parallel derivative workers (Sec. V: "in parallel"); ours: 2 cores
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    """The physics-based planner (Sec. V, Tables I and II)."""
+
+    iterations: int = 30  # Sec. V: iLQR capped at 30 iterations
+    sphere_iterations: int = 10  # Sec. V: first 10 iterations with the sphere gripper proxy
+    w_static: float = 1e3  # Table II
+    w_acc: float = 1e-3  # Table II
+    w_force: float = 10.0  # Table II
+    w_motion: float = 1e-3  # Table II
+    w_upright: float = 1.0  # Table II
+    w_grasp: float = 1e3  # Table II (terminal)
+    w_grp_horiz: float = 1.0  # Table II (terminal)
+    w_grp_open: float = 1.0  # Table II (terminal)
+    w_dynamic: float = 80.0  # Sec. V-A pre-processing; ours: as w_static_hull
+    w_match: float = 1.0  # Sec. V-B post-processing; ours
+    w_match_vel: float = 1.0  # Sec. V-B post-processing; ours
+
+
+@dataclass(frozen=True)
 class Config:
     """All settings of drake_clutter, one section per module."""
 
     generator: GeneratorConfig = field(default_factory=GeneratorConfig)
     world: WorldConfig = field(default_factory=WorldConfig)
+    baseline: BaselineConfig = field(default_factory=BaselineConfig)
+    evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
+    dynamics: DynamicsConfig = field(default_factory=DynamicsConfig)
+    physics: PhysicsConfig = field(default_factory=PhysicsConfig)
 
 
 def config_to_data(config: Config) -> dict:

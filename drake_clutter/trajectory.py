@@ -1,0 +1,185 @@
+"""Robot trajectories, planner candidates and plan files: the data that flows between stages.
+
+A `Trajectory` is a joint-space path of the PR2 arm and gripper sampled at knots: ``times``
+(s, increasing, starting at 0) and ``q`` (one row per knot) over `TRAJECTORY_JOINTS`: the seven
+arm joints (rad) followed by the gripper opening (m, gap between the pads, 0..0.09). Between
+knots the path is linear in these coordinates. `robot_positions` turns rows into the 9-vector
+the Drake worlds use (ROBOT_JOINTS: 7 arm joints + 2 finger slides).
+
+A `Candidate` is what a planner returns per approach angle (Sec. IV): the angle, a status and
+reason, the trajectory (if any) and timings. A plan file (JSON) holds the candidates of one
+scene; `save_plan` / `load_plan` write and read it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from drake_clutter import robot_model
+from drake_clutter.typed_yaml import InputError
+
+GRIPPER_COORDINATE = "r_gripper_opening"
+TRAJECTORY_JOINTS: tuple[str, ...] = robot_model.ARM_JOINTS + (GRIPPER_COORDINATE,)
+PLAN_FORMAT = "drake_clutter.plan/1"
+
+
+class PlanFileError(InputError):
+    """A plan file is unreadable or malformed."""
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """Knot times (s, shape (T,)) and positions (shape (T, 8), TRAJECTORY_JOINTS order)."""
+
+    times: np.ndarray
+    q: np.ndarray
+    joint_names: tuple[str, ...] = TRAJECTORY_JOINTS
+
+    def __post_init__(self):
+        times = np.asarray(self.times, dtype=float)
+        q = np.asarray(self.q, dtype=float)
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "q", q)
+        if times.ndim != 1 or len(times) < 2:
+            raise ValueError("a trajectory needs at least two knot times")
+        if q.shape != (len(times), len(self.joint_names)):
+            expected = (len(times), len(self.joint_names))
+            raise ValueError(f"q has shape {q.shape}, expected {expected}")
+        if np.any(np.diff(times) <= 0) or not np.all(np.isfinite(times)):
+            raise ValueError("knot times must be finite and strictly increasing")
+        if not np.all(np.isfinite(q)):
+            raise ValueError("joint positions must be finite")
+
+    def __eq__(self, other) -> bool:
+        return (isinstance(other, Trajectory) and self.joint_names == other.joint_names
+                and np.array_equal(self.times, other.times) and np.array_equal(self.q, other.q))
+
+    @property
+    def duration(self) -> float:
+        """s."""
+        return float(self.times[-1] - self.times[0])
+
+    @property
+    def num_knots(self) -> int:
+        """Number of knots T."""
+        return len(self.times)
+
+    def at(self, t: float | np.ndarray) -> np.ndarray:
+        """Positions at time(s) ``t`` (linear between knots, held outside the time span)."""
+        t = np.asarray(t, dtype=float)
+        cols = [np.interp(t, self.times, self.q[:, j]) for j in range(self.q.shape[1])]
+        return np.stack(cols, axis=-1)
+
+    def resampled(self, dt: float) -> Trajectory:
+        """The same path sampled every ``dt`` seconds (the last knot kept exactly)."""
+        n = max(1, math.ceil(self.duration / dt - 1e-9))
+        times = np.linspace(self.times[0], self.times[-1], n + 1)
+        return Trajectory(times, self.at(times), self.joint_names)
+
+    def robot_positions(self) -> np.ndarray:
+        """Rows as Drake robot position vectors, shape (T, 9), ROBOT_JOINTS order."""
+        return robot_positions(self.q)
+
+    def to_data(self) -> dict:
+        """JSON-ready dict."""
+        return {"joint_names": list(self.joint_names), "times": self.times.tolist(),
+                "q": self.q.tolist()}
+
+    @staticmethod
+    def from_data(data: dict) -> Trajectory:
+        """Inverse of `to_data`; raises ValueError/KeyError/TypeError on bad data."""
+        return Trajectory(np.asarray(data["times"], dtype=float),
+                          np.asarray(data["q"], dtype=float), tuple(data["joint_names"]))
+
+
+def robot_positions(q_traj: np.ndarray) -> np.ndarray:
+    """(…, 8) TRAJECTORY_JOINTS rows -> (…, 9) ROBOT_JOINTS rows (both fingers at half the gap)."""
+    q_traj = np.asarray(q_traj, dtype=float)
+    finger = q_traj[..., -1:] / 2.0
+    return np.concatenate([q_traj[..., :-1], finger, finger], axis=-1)
+
+
+def trajectory_coordinates(q_robot: np.ndarray) -> np.ndarray:
+    """(…, 9) ROBOT_JOINTS rows -> (…, 8) TRAJECTORY_JOINTS rows (opening = sum of the slides)."""
+    q_robot = np.asarray(q_robot, dtype=float)
+    return np.concatenate([q_robot[..., :7], q_robot[..., 7:8] + q_robot[..., 8:9]], axis=-1)
+
+
+CANDIDATE_STATUSES = ("ok", "ik_failed", "optimisation_failed", "collision_check_failed",
+                      "planner_failure")
+
+
+@dataclass
+class Candidate:
+    """One approach angle's result: ``status`` is one of CANDIDATE_STATUSES ("ok" = usable)."""
+
+    alpha: float
+    status: str
+    reason: str = ""
+    trajectory: Trajectory | None = None
+    planner: str = "baseline"
+    timings: dict[str, float] = field(default_factory=dict)
+    details: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """True when the candidate carries a usable trajectory."""
+        return self.status == "ok" and self.trajectory is not None
+
+    def to_data(self) -> dict:
+        """JSON-ready dict."""
+        return {"alpha": self.alpha, "status": self.status, "reason": self.reason,
+                "planner": self.planner, "timings": dict(self.timings),
+                "details": self.details,
+                "trajectory": None if self.trajectory is None else self.trajectory.to_data()}
+
+    @staticmethod
+    def from_data(data: dict) -> Candidate:
+        """Inverse of `to_data`."""
+        traj = data.get("trajectory")
+        return Candidate(alpha=float(data["alpha"]), status=str(data["status"]),
+                         reason=str(data.get("reason", "")),
+                         trajectory=None if traj is None else Trajectory.from_data(traj),
+                         planner=str(data.get("planner", "baseline")),
+                         timings={k: float(v) for k, v in data.get("timings", {}).items()},
+                         details=dict(data.get("details", {})))
+
+
+def save_plan(path: str | Path, scene_name: str, candidates: list[Candidate],
+              extra: dict | None = None) -> Path:
+    """Writes a plan file (JSON) with the candidates of one scene; returns the path."""
+    path = Path(path)
+    doc = {"format": PLAN_FORMAT, "scene": scene_name, **(extra or {}),
+           "candidates": [c.to_data() for c in candidates]}
+    try:
+        path.write_text(json.dumps(doc, indent=1), encoding="utf-8")
+    except OSError as exc:
+        raise PlanFileError(path, "", f"cannot write the plan file: {exc.strerror}") from None
+    return path
+
+
+def load_plan(path: str | Path) -> tuple[str, list[Candidate], dict]:
+    """Reads a plan file: (scene name, candidates, the whole document). Raises PlanFileError."""
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise PlanFileError(path, "", "no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PlanFileError(path, "", f"cannot be read: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise PlanFileError(path, f"line {exc.lineno}", f"not valid JSON: {exc.msg}") from None
+    if not isinstance(doc, dict) or doc.get("format") != PLAN_FORMAT:
+        raise PlanFileError(path, "format", f"not a plan file (expected format {PLAN_FORMAT})")
+    candidates = []
+    for i, item in enumerate(doc.get("candidates", [])):
+        try:
+            candidates.append(Candidate.from_data(item))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise PlanFileError(path, f"candidates[{i}]", f"malformed candidate: {exc}") from None
+    return str(doc.get("scene", "")), candidates, doc

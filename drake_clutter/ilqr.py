@@ -1,0 +1,248 @@
+"""Iterative LQR (Li and Todorov 2004; Sec. V of the paper) in pure NumPy.
+
+The solver sees two small protocols and nothing of Drake:
+
+* ``dynamics.step(t, x, u) -> x_next`` and ``dynamics.linearize(xs, us) -> (A, B)`` with
+  ``A[t] = d x_{t+1} / d x_t`` (nx x nx) and ``B[t] = d x_{t+1} / d u_t`` (nx x nu), t = 0..T-1;
+* ``cost.terms(xs, us) -> dict[name, float]`` (the weighted value of every term over the whole
+  trajectory; their sum is the objective) and ``cost.quadratize(xs, us) -> Expansion``.
+
+``xs`` has T + 1 rows (x_0 .. x_T) and ``us`` T rows (u_0 .. u_{T-1}).
+
+Controls may be box-bounded (``u_min``/``u_max``): the forward pass clamps every control into
+the box, and the backward pass drops the feedback of controls that sit on a bound in the
+nominal trajectory (their gradient pushing outwards), so the linear policy does not fight the
+clamp - the simple form of the control-limited iLQR of Tassa et al. (2014).
+
+Regularisation: Levenberg-Marquardt on Q_uu (``mu * I``), raised by ``reg_factor`` whenever
+Q_uu is not positive definite or the line search fails, lowered after every accepted step.
+Line search: step sizes 1, 1/2, 1/4, ...; a step is accepted only if it lowers the objective,
+so the cost never increases across accepted iterations. Stop rules: the iteration cap, a
+relative decrease below ``tolerance``, or the regulariser exceeding ``reg_max``.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+
+class Dynamics(Protocol):
+    """Discrete-time dynamics x_{t+1} = f_t(x_t, u_t)."""
+
+    def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray: ...
+
+    def linearize(self, xs: np.ndarray, us: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@dataclass
+class Expansion:
+    """Second-order expansion of the objective about (xs, us).
+
+    Running terms per knot t = 0..T-1: ``lx`` (T, nx), ``lu`` (T, nu), ``lxx`` (T, nx, nx),
+    ``luu`` (T, nu, nu), ``lux`` (T, nu, nx); terminal terms at x_T: ``vx`` (nx,), ``vxx``
+    (nx, nx). Costs that couple knots (velocities, accelerations) must be written over an
+    augmented state that carries the previous controls.
+    """
+
+    lx: np.ndarray
+    lu: np.ndarray
+    lxx: np.ndarray
+    luu: np.ndarray
+    lux: np.ndarray
+    vx: np.ndarray
+    vxx: np.ndarray
+
+
+class Cost(Protocol):
+    """The objective: named weighted terms, and their quadratic expansion."""
+
+    def terms(self, xs: np.ndarray, us: np.ndarray) -> dict[str, float]: ...
+
+    def quadratize(self, xs: np.ndarray, us: np.ndarray) -> Expansion: ...
+
+
+@dataclass(frozen=True)
+class ILQRSettings:
+    """Solver settings; the defaults follow Sec. V (30 iterations) where the paper sets one."""
+
+    max_iterations: int = 30  # Sec. V: iLQR capped at 30 iterations
+    tolerance: float = 1e-6  # relative objective decrease that counts as converged; ours
+    reg_init: float = 1e-6  # initial Levenberg-Marquardt term on Q_uu; ours
+    reg_min: float = 1e-9
+    reg_max: float = 1e10
+    reg_factor: float = 10.0
+    line_search_steps: int = 10  # step sizes 1, 1/2, ..., 2^-9
+    u_min: tuple[float, ...] | None = None
+    u_max: tuple[float, ...] | None = None
+
+
+@dataclass
+class ILQRResult:
+    """Everything the solver produced: trajectory, policy, history, why it stopped, timings."""
+
+    xs: np.ndarray
+    us: np.ndarray
+    K: np.ndarray  # (T, nu, nx) feedback gains
+    k: np.ndarray  # (T, nu) feed-forward terms of the last backward pass
+    cost: float
+    cost_history: list[float]  # objective after each accepted iteration (index 0: the start)
+    term_history: list[dict[str, float]]  # per-term values, aligned with cost_history
+    iterations: int
+    stop_reason: str
+    timings: dict[str, float] = field(default_factory=dict)  # s, summed over iterations
+
+    @property
+    def converged(self) -> bool:
+        """True when stopped by the tolerance rule."""
+        return self.stop_reason == "converged"
+
+
+def rollout(dynamics: Dynamics, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
+    """States x_0..x_T of applying ``us`` from ``x0``."""
+    xs = np.empty((len(us) + 1, len(x0)))
+    xs[0] = x0
+    for t, u in enumerate(us):
+        xs[t + 1] = dynamics.step(t, xs[t], u)
+    return xs
+
+
+def _bounds(settings: ILQRSettings, nu: int) -> tuple[np.ndarray, np.ndarray]:
+    lo = np.full(nu, -np.inf) if settings.u_min is None else np.asarray(settings.u_min, float)
+    hi = np.full(nu, np.inf) if settings.u_max is None else np.asarray(settings.u_max, float)
+    if lo.shape != (nu,) or hi.shape != (nu,) or np.any(lo > hi):
+        raise ValueError("u_min/u_max must have one entry per control and u_min <= u_max")
+    return lo, hi
+
+
+def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
+                  lo: np.ndarray | None = None, hi: np.ndarray | None = None):
+    """Riccati-like recursion. Returns (k, K, expected decrease terms (d1, d2)) or None when
+    Q_uu + mu I is not positive definite at some knot."""
+    T, nu, nx = exp.lu.shape[0], exp.lu.shape[1], exp.lx.shape[1]
+    k, K = np.zeros((T, nu)), np.zeros((T, nu, nx))
+    vx, vxx = exp.vx.copy(), exp.vxx.copy()
+    d1 = d2 = 0.0
+    for t in range(T - 1, -1, -1):
+        At, Bt = A[t], B[t]
+        qx = exp.lx[t] + At.T @ vx
+        qu = exp.lu[t] + Bt.T @ vx
+        qxx = exp.lxx[t] + At.T @ vxx @ At
+        quu = exp.luu[t] + Bt.T @ vxx @ Bt
+        qux = exp.lux[t] + Bt.T @ vxx @ At
+        try:
+            chol = np.linalg.cholesky(quu + mu * np.eye(nu))
+        except np.linalg.LinAlgError:
+            return None
+        free = np.ones(nu, dtype=bool)
+        if us is not None:  # controls pinned on a bound with the gradient pushing outwards
+            free &= ~(((us[t] <= lo) & (qu > 0)) | ((us[t] >= hi) & (qu < 0)))
+        kt = -_chol_solve(chol, qu)
+        Kt = -_chol_solve(chol, qux)
+        kt[~free] = 0.0
+        Kt[~free] = 0.0
+        k[t], K[t] = kt, Kt
+        d1 += kt @ qu
+        d2 += 0.5 * kt @ quu @ kt
+        vx = qx + Kt.T @ quu @ kt + Kt.T @ qu + qux.T @ kt
+        vxx = qxx + Kt.T @ quu @ Kt + Kt.T @ qux + qux.T @ Kt
+        vxx = 0.5 * (vxx + vxx.T)
+    return k, K, (d1, d2)
+
+
+def _chol_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    y = np.linalg.solve(chol, rhs)
+    return np.linalg.solve(chol.T, y)
+
+
+def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi):
+    """New (xs, us) from the policy u = clamp(u_bar + alpha k + K (x - x_bar))."""
+    new_xs = np.empty_like(xs)
+    new_us = np.empty_like(us)
+    new_xs[0] = xs[0]
+    for t in range(len(us)):
+        u = us[t] + alpha * k[t] + K[t] @ (new_xs[t] - xs[t])
+        new_us[t] = np.clip(u, lo, hi)
+        new_xs[t + 1] = dynamics.step(t, new_xs[t], new_us[t])
+    return new_xs, new_us
+
+
+def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
+          settings: ILQRSettings | None = None) -> ILQRResult:
+    """Runs iLQR from the control sequence ``us_init`` (clamped into the bounds)."""
+    settings = settings or ILQRSettings()
+    us = np.array(us_init, dtype=float)
+    lo, hi = _bounds(settings, us.shape[1])
+    us = np.clip(us, lo, hi)
+    timings = {"rollout": 0.0, "linearize": 0.0, "quadratize": 0.0, "backward": 0.0,
+               "forward": 0.0}
+    tic = time.perf_counter()
+    xs = rollout(dynamics, np.asarray(x0, dtype=float), us)
+    timings["rollout"] += time.perf_counter() - tic
+    terms = cost.terms(xs, us)
+    total = float(sum(terms.values()))
+    history, term_history = [total], [terms]
+    mu = settings.reg_init
+    K = np.zeros((len(us), us.shape[1], xs.shape[1]))
+    k = np.zeros_like(us)
+    stop_reason = "max_iterations"
+    iteration = 0
+    while iteration < settings.max_iterations:
+        iteration += 1
+        tic = time.perf_counter()
+        A, B = dynamics.linearize(xs, us)
+        timings["linearize"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        exp = cost.quadratize(xs, us)
+        timings["quadratize"] += time.perf_counter() - tic
+        accepted = False
+        while mu <= settings.reg_max:
+            tic = time.perf_counter()
+            bp = backward_pass(A, B, exp, mu, us, lo, hi)
+            timings["backward"] += time.perf_counter() - tic
+            if bp is None:
+                mu = max(mu * settings.reg_factor, settings.reg_min)
+                continue
+            k, K, (d1, d2) = bp
+            if -(d1 + d2) < settings.tolerance * max(abs(total), 1e-12):
+                break  # the model predicts no worthwhile decrease: a stationary point
+            tic = time.perf_counter()
+            step = _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings)
+            timings["forward"] += time.perf_counter() - tic
+            if step is not None:
+                accepted = True
+                break
+            mu = max(mu * settings.reg_factor, settings.reg_min)
+        if not accepted:
+            stop_reason = "converged" if mu <= settings.reg_max else "regularization_limit"
+            iteration -= 1
+            break
+        xs, us, terms, new_total = step
+        mu = max(mu / settings.reg_factor, settings.reg_min)
+        improvement = (total - new_total) / max(abs(total), 1e-12)
+        total = new_total
+        history.append(total)
+        term_history.append(terms)
+        if improvement < settings.tolerance:
+            stop_reason = "converged"
+            break
+    return ILQRResult(xs=xs, us=us, K=K, k=k, cost=total, cost_history=history,
+                      term_history=term_history, iterations=iteration, stop_reason=stop_reason,
+                      timings=timings)
+
+
+def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings):
+    """First step size 1, 1/2, ... that lowers the objective: (xs, us, terms, total) or None."""
+    alpha = 1.0
+    for _ in range(settings.line_search_steps):
+        new_xs, new_us = forward_pass(dynamics, xs, us, k, K, alpha, lo, hi)
+        if np.all(np.isfinite(new_xs)):
+            terms = cost.terms(new_xs, new_us)
+            new_total = float(sum(terms.values()))
+            if new_total < total:
+                return new_xs, new_us, terms, new_total
+        alpha *= 0.5
+    return None

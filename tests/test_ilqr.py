@@ -1,0 +1,149 @@
+"""iLQR against known answers: LQR (batch least squares), monotone cost, control bounds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drake_clutter.ilqr import Expansion, ILQRSettings, rollout, solve
+
+
+class LinearDynamics:
+    def __init__(self, A, B):
+        self.A, self.B = A, B
+
+    def step(self, t, x, u):
+        return self.A @ x + self.B @ u
+
+    def linearize(self, xs, us):
+        T = len(us)
+        return np.repeat(self.A[None], T, 0), np.repeat(self.B[None], T, 0)
+
+
+class QuadraticCost:
+    """sum_t 1/2 x'Qx + 1/2 u'Ru + 1/2 x_T' Qf x_T."""
+
+    def __init__(self, Q, R, Qf):
+        self.Q, self.R, self.Qf = Q, R, Qf
+
+    def terms(self, xs, us):
+        state = 0.5 * np.einsum("ti,ij,tj->", xs[:-1], self.Q, xs[:-1])
+        control = 0.5 * np.einsum("ti,ij,tj->", us, self.R, us)
+        return {"state": state, "control": control, "terminal": 0.5 * xs[-1] @ self.Qf @ xs[-1]}
+
+    def quadratize(self, xs, us):
+        T = len(us)
+        return Expansion(lx=xs[:-1] @ self.Q, lu=us @ self.R,
+                         lxx=np.repeat(self.Q[None], T, 0), luu=np.repeat(self.R[None], T, 0),
+                         lux=np.zeros((T, us.shape[1], xs.shape[1])), vx=self.Qf @ xs[-1],
+                         vxx=self.Qf)
+
+
+def _lqr_problem(seed=0, T=25):
+    rng = np.random.default_rng(seed)
+    nx, nu = 4, 2
+    A = np.eye(nx) + 0.1 * rng.standard_normal((nx, nx))
+    B = 0.1 * rng.standard_normal((nx, nu))
+    Q = np.diag(rng.uniform(0.5, 2.0, nx))
+    R = np.diag(rng.uniform(0.1, 1.0, nu))
+    Qf = 10 * np.eye(nx)
+    x0 = rng.standard_normal(nx)
+    return A, B, Q, R, Qf, x0, T
+
+
+def _batch_lqr(A, B, Q, R, Qf, x0, T):
+    """Optimal controls by stacking x = Sx x0 + Su U and solving the normal equations."""
+    nx, nu = B.shape
+    Sx = np.zeros(((T + 1) * nx, nx))
+    Su = np.zeros(((T + 1) * nx, T * nu))
+    for t in range(T + 1):
+        Sx[t * nx:(t + 1) * nx] = np.linalg.matrix_power(A, t)
+        for s in range(t):
+            Su[t * nx:(t + 1) * nx, s * nu:(s + 1) * nu] = np.linalg.matrix_power(A, t - 1 - s) @ B
+    Qbar = np.kron(np.eye(T + 1), Q)
+    Qbar[-nx:, -nx:] = Qf
+    Rbar = np.kron(np.eye(T), R)
+    H = Su.T @ Qbar @ Su + Rbar
+    g = Su.T @ Qbar @ Sx @ x0
+    return np.linalg.solve(H, -g).reshape(T, nu)
+
+
+def test_lqr_is_solved_in_one_iteration_and_matches_batch_solution():
+    A, B, Q, R, Qf, x0, T = _lqr_problem()
+    settings = ILQRSettings(reg_init=0.0, reg_min=0.0)
+    result = solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)), settings)
+    expected = _batch_lqr(A, B, Q, R, Qf, x0, T)
+    np.testing.assert_allclose(result.us, expected, rtol=1e-8, atol=1e-10)
+    assert result.iterations == 1 and result.converged
+    # The feedback policy reproduces the optimum from a perturbed start too (it is the LQR law).
+    dyn = LinearDynamics(A, B)
+    x0b = x0 + 0.3
+    xs = rollout(dyn, x0, result.us)
+    us_fb = []
+    x = x0b
+    for t in range(T):
+        u = result.us[t] + result.K[t] @ (x - xs[t])
+        us_fb.append(u)
+        x = A @ x + B @ u
+    np.testing.assert_allclose(np.array(us_fb), _batch_lqr(A, B, Q, R, Qf, x0b, T), atol=1e-8)
+
+
+class Pendulum:
+    """Damped pendulum, x = (angle, rate), u = torque; explicit Euler, dt = 0.05."""
+
+    dt = 0.05
+
+    def step(self, t, x, u):
+        th, w = x
+        return np.array([th + self.dt * w, w + self.dt * (-9.81 * np.sin(th) - 0.1 * w + u[0])])
+
+    def linearize(self, xs, us):
+        T = len(us)
+        A = np.zeros((T, 2, 2))
+        A[:, 0, 0] = 1.0
+        A[:, 0, 1] = self.dt
+        A[:, 1, 0] = -self.dt * 9.81 * np.cos(xs[:-1, 0])
+        A[:, 1, 1] = 1 - 0.1 * self.dt
+        B = np.zeros((T, 2, 1))
+        B[:, 1, 0] = self.dt
+        return A, B
+
+
+class SwingUpCost:
+    goal = np.array([np.pi, 0.0])
+
+    def terms(self, xs, us):
+        return {"effort": 0.5 * 0.01 * float(np.sum(us ** 2)),
+                "terminal": 0.5 * 100.0 * float(np.sum((xs[-1] - self.goal) ** 2))}
+
+    def quadratize(self, xs, us):
+        T = len(us)
+        return Expansion(lx=np.zeros((T, 2)), lu=0.01 * us, lxx=np.zeros((T, 2, 2)),
+                         luu=np.full((T, 1, 1), 0.01), lux=np.zeros((T, 1, 2)),
+                         vx=100.0 * (xs[-1] - self.goal), vxx=100.0 * np.eye(2))
+
+
+def test_nonlinear_cost_never_increases_and_bounds_hold():
+    settings = ILQRSettings(max_iterations=60, u_min=(-2.5,), u_max=(2.5,))
+    result = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)
+    history = np.array(result.cost_history)
+    assert np.all(np.diff(history) <= 0), "accepted iterations never raise the objective"
+    assert history[-1] < 0.01 * history[0]
+    assert np.all(np.abs(result.us) <= 2.5 + 1e-12)
+    assert np.max(np.abs(result.us)) == pytest.approx(2.5), "the bound is active (free peak 3.6)"
+    assert result.term_history[-1].keys() == {"effort", "terminal"}
+    assert sum(result.term_history[-1].values()) == pytest.approx(result.cost)
+    np.testing.assert_allclose(result.xs, rollout(Pendulum(), np.zeros(2), result.us))
+    assert set(result.timings) >= {"linearize", "backward", "forward"}
+
+
+def test_iteration_cap_is_a_stop_reason():
+    settings = ILQRSettings(max_iterations=2)
+    result = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)
+    assert result.iterations == 2 and result.stop_reason == "max_iterations"
+
+
+def test_bad_bounds_are_rejected():
+    with pytest.raises(ValueError):
+        solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((5, 1)),
+              ILQRSettings(u_min=(1.0,), u_max=(0.0,)))

@@ -147,3 +147,12 @@ def test_bad_bounds_are_rejected():
     with pytest.raises(ValueError):
         solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((5, 1)),
               ILQRSettings(u_min=(1.0,), u_max=(0.0,)))
+
+
+def test_solver_imports_no_pydrake():
+    import subprocess
+    import sys
+
+    code = "import sys, drake_clutter.ilqr; print('pydrake' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

@@ -123,6 +123,32 @@ class EvaluationConfig:
     settle_time_cap: float = 3.0  # s simulated after the last knot at most; ours
     rest_speed: float = 0.01  # m/s: every box slower than this counts as at rest; ours
     max_tilt: float = 0.35  # rad (20 deg): a box tilted more has tipped over (Sec. III); ours
+    # Settling and the simulator (all ours).
+    rest_angular_speed: float = 0.1  # rad/s: ... and turning slower than this (0.1 m lever)
+    rest_hold_time: float = 0.1  # s at rest before settling stops (a topple pauses at its top)
+    monitor_interval: int = 4  # steps per motor update and check (60 Hz): speed (1 s target)
+    solver_iterations: int = 10  # Bullet's own default (pybullet: 50, 2x slower when pushing)
+    contact_breaking_threshold: float = 0.02  # m, Bullet's default; process-global, so set
+    arm_friction: float = 1.0  # arm links; Bullet multiplies coefficients: arm-box = the box's
+    arm_max_force: float = 1.0e4  # N m (torso: N): kinematic arm, far above any contact load
+    # Kinematic failure (Sec. III), all ours.
+    max_tracking_error: float = 0.02  # rad on an arm joint: the arm cannot follow the plan
+    static_penetration: float = 0.005  # m the arm may sink into the shelf (Bullet slop ~1 mm)
+    max_static_force: float = 50.0  # N pressing into the shelf (arm, or box beyond its weight):
+    # ~1.5x what the PR2's 30 N m shoulder pushes at 0.8 m, 2.5x the heaviest generated box
+    force_window: float = 0.2  # s, forces averaged over this long: impacts are not pressing
+    joint_limit_tolerance: float = 1e-3  # rad (m for the gripper) a plan may pass a limit by
+    velocity_limit_factor: float = 1.0  # plan speeds allowed up to this x the PR2's limits
+    # Pre-grasp zone (Sec. III), in the tool frame G; all ours.
+    zone_margin: float = 0.01  # m the zone extends past the pads along the approach (x_G)
+    fit_tolerance: float = 0.003  # m the target may reach past a pad's face / height
+    intrusion_tolerance: float = 0.002  # m another box must reach into the zone to count
+    # Grasp-and-lift check (beyond the paper; issue 4).
+    lift_height: float = 0.05  # m the tool frame rises
+    lift_close_time: float = 1.0  # s to close the fingers (PR2 effort and speed limits)
+    lift_time: float = 1.0  # s for the rise
+    lift_hold_time: float = 0.5  # s held at the top before looking
+    lift_fraction: float = 0.8  # the target must rise this x lift_height to count as lifted
 
 
 @dataclass(frozen=True)

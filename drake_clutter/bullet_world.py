@@ -25,17 +25,36 @@ Close the world (``with build_bullet_world(...) as world:``) to free the client.
 
 from __future__ import annotations
 
+import importlib
+import os
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import pybullet as pb
 from scipy.spatial.transform import Rotation
 
 from drake_clutter import robot_model
 from drake_clutter.config import EvaluationConfig
 from drake_clutter.scenes import Scene
 from drake_clutter.shelf_model import SHELF_FRICTION, shelf_boxes
+
+
+def _import_pybullet_quietly():
+    """pybullet announces its build time on stderr when imported; the command line promises one
+    line on stderr for a user error, so the announcement goes to the null device."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            return importlib.import_module("pybullet")
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+pb = _import_pybullet_quietly()
 
 GRAVITY = 9.81  # m/s^2
 MOTOR_ORDER: tuple[str, ...] = (robot_model.TORSO_JOINT, *robot_model.ARM_JOINTS,
@@ -98,14 +117,15 @@ def _add_shelf(client: int, scene: Scene) -> int:
         [pb.GEOM_BOX] * len(parts), halfExtents=[[s / 2 for s in size] for _, _, size in parts],
         collisionFramePositions=[list(centre) for _, centre, _ in parts], physicsClientId=client)
     body = pb.createMultiBody(0.0, shape, -1, [*shelf.center_xy, shelf.top_height],
-                              physicsClientId=client)
+                              useMaximalCoordinates=True, physicsClientId=client)
     pb.changeDynamics(body, -1, lateralFriction=SHELF_FRICTION, physicsClientId=client)
     return body
 
 
 def _add_floor(client: int) -> int:
     shape = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=client)
-    body = pb.createMultiBody(0.0, shape, -1, [0.0, 0.0, 0.0], physicsClientId=client)
+    body = pb.createMultiBody(0.0, shape, -1, [0.0, 0.0, 0.0], useMaximalCoordinates=True,
+                              physicsClientId=client)
     pb.changeDynamics(body, -1, lateralFriction=SHELF_FRICTION, physicsClientId=client)
     return body
 

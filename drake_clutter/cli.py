@@ -109,7 +109,8 @@ def _cmd_evaluate(args) -> int:
     try:
         Path(args.out).write_text(json.dumps(doc, indent=1), encoding="utf-8")
     except OSError as exc:
-        raise InputError(args.out, "", f"cannot write the outcome file: {exc.strerror}") from None
+        raise InputError("<command line>", "--out", f"cannot write {args.out}: {exc.strerror}") \
+            from None
     print(outcome_table(candidates, outcomes))
     print(f"scene score: {doc['scene_score']} ({scene.name}, {len(candidates)} candidates); "
           f"wrote {args.out}")

@@ -349,9 +349,9 @@ def _replay(world: bw.BulletWorld, trajectory: Trajectory, config: EvaluationCon
         bw.step(world, int(marks[u + 1] - marks[u]))
         monitor.contacts(world, marks[u + 1] * dt)
         if monitor.failure:
-            return marks[u + 1] * dt, q_plan[-1]
+            return float(marks[u + 1] * dt), q_plan[-1]
     monitor.track(bw.joint_positions(world), q_plan[-1], num_steps * dt)
-    return num_steps * dt, q_plan[-1]
+    return float(num_steps * dt), q_plan[-1]
 
 
 def _settle(world: bw.BulletWorld, q_hold: np.ndarray, config: EvaluationConfig,

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -359,8 +361,16 @@ def test_bullet_world_matches_the_scene(dense_world):
         assert np.allclose(np.subtract(high, low), extent, atol=3e-3)  # AABB has Bullet's margin
         assert np.allclose(p[i], [box.pose[0], box.pose[1], scene.box_center_z(box)], atol=1e-9)
         assert math.atan2(R[i][1, 0], R[i][0, 0]) == pytest.approx(box.pose[2], abs=1e-9)
-    shelf_parts = pb.getCollisionShapeData(world.shelf, -1, physicsClientId=client)
-    assert len(shelf_parts) == 5  # board, back wall, two side walls, ceiling
+    # The shelf spans the board and, for the fridge, walls and ceiling up to height + thickness.
+    low, high = pb.getAABB(world.shelf, physicsClientId=client)
+    shelf = scene.shelf
+    top = shelf.top_height + shelf.walls.height + shelf.walls.thickness
+    expected_low = [shelf.center_xy[0] - shelf.depth / 2, shelf.center_xy[1] - shelf.width / 2,
+                    shelf.top_height - shelf.thickness]
+    expected_high = [shelf.center_xy[0] + shelf.depth / 2, shelf.center_xy[1] + shelf.width / 2,
+                     top]
+    assert np.allclose(low, expected_low, atol=3e-3) and np.allclose(high, expected_high,
+                                                                     atol=3e-3)
     assert bw.joint_positions(world)[0] == pytest.approx(scene.robot.torso_height)
 
 
@@ -462,10 +472,13 @@ def test_cli_evaluate_rejects_a_plan_for_another_scene(tmp_path, capsys, clean_r
     scene_file = save_scene(scene, tmp_path / "scene.yaml")
     plan = save_plan(tmp_path / "plan.json", "some_other_scene",
                      [Candidate(0.0, "ok", trajectory=trajectory)])
-    assert main(["evaluate", str(scene_file), str(plan), "--out",
-                 str(tmp_path / "o.json")]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "plan.json" in err and "some_other_scene" in err
+    # A fresh process: importing pybullet must not add its banner to the one-line error.
+    result = subprocess.run([sys.executable, "-m", "drake_clutter.cli", "evaluate",
+                             str(scene_file), str(plan), "--out", str(tmp_path / "o.json")],
+                            capture_output=True, text=True, check=False)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1, result.stderr
+    assert "plan.json: scene:" in result.stderr and "some_other_scene" in result.stderr
     assert main(["evaluate", str(scene_file), str(tmp_path / "missing.json"), "--out",
                  str(tmp_path / "o.json")]) == 2
     assert "no such file" in capsys.readouterr().err

@@ -160,6 +160,34 @@ class DynamicsConfig:
     prune_margin: float = 0.05  # m around the arm's swept volume; ours (Sec. I: affected boxes)
     derivative_stride: int = 1  # compute A_t, B_t every k-th knot and interpolate; 1 = all
     workers: int = 2  # parallel derivative workers (Sec. V: "in parallel"); ours: 2 cores
+    # (0 = serial, in the calling process)
+    # phi's simulation (all ours; measurements in the README's phi section).
+    substeps: int = 20  # SAP steps per knot: 0.2 s knots / 20 = 0.01 s; hydroelastic boxes
+    # blew up at 0.015-0.02 s, point-contact ones fell through the board at 0.05 s, and a push
+    # at 0.02 s ended 2.9 cm from a 5 ms reference (1.4 cm at 0.01 s)
+    contact_model: Literal["point", "spheres", "hydroelastic"] = "point"  # boxes in phi:
+    # "point" = corner spheres on the shelf + Box shapes against arm and boxes (3-4x cheaper
+    # than hydroelastic, boxes settle to 1e-9 m/s); "spheres" = corner spheres only (AutoDiffXd
+    # can step it: the validation variant); "hydroelastic" = world.py's compliant boxes
+    corner_sphere_radius: float = 0.004  # m, spheres inside the box corners; ours (small:
+    # the box rests on its real footprint)
+    interaction_margin: float = 1e-3  # m: bodies closer than this at a sub-step's start may
+    # interact in that step (1000 x the FD step, so a perturbation cannot create a contact)
+    known_block_tolerance: float = 1e-7  # max |state change| (m, rad, m/s) for which an
+    # isolated box reuses its Jacobian block from an earlier knot (a box at rest); ours: a
+    # tenth of fd_step, so the reused difference quotient is as good as a fresh one
+    prune_contact_range: float = 0.01  # m: boxes within this of a kept box are kept too
+    # (transitively); ours: twice the generator's 5 mm gap, so neighbours a push reaches stay
+    prune_rounds: int = 3  # rollouts that check the kept set: frozen boxes a kept box (or
+    # the arm) reached in the rollout become dynamic and it is rolled out again; ours (a pushed
+    # box travels 10+ cm, past any fixed contact range)
+    prune_samples_per_knot: int = 4  # arm poses per knot interval for the swept volume; ours
+    # (the gripper moves ~2-5 cm per knot, well under prune_margin between samples)
+    settle_time: float = 3.0  # s the boxes rest under the still arm before planning; ours:
+    # boxes placed exactly on the board first sink 0.3 mm, then the overdamped corner contacts
+    # lift them back; box speeds fall to 2e-7 m/s at 2 s and 2e-9 m/s at 3 s
+    step_cache_size: int = 512  # traced steps remembered for linearize (2 iLQR horizons of
+    # line search); ours
 
 
 @dataclass(frozen=True)

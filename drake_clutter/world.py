@@ -17,6 +17,7 @@ position; metres, radians, seconds. W is the scene's world frame (see `scenes`).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,7 @@ from pydrake.geometry import (
     GeometrySet,
     ProximityProperties,
     Role,
+    Sphere,
 )
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import (
@@ -166,20 +168,62 @@ def _box_proximity(box: BoxObject, config: WorldConfig, compliant: bool) -> Prox
     return props
 
 
+@dataclass(frozen=True)
+class PointContactBoxes:
+    """Boxes in point contact instead of compliant hydroelastic contact (phi variants).
+
+    A sphere of ``sphere_radius`` sits inside each of a box's 8 corners, flush with its faces,
+    and alone touches the shelf (point contact of a Box shape on a board jitters at rest; four
+    spheres settle). With ``box_shape`` the Box itself meets the arm and the other boxes; without
+    it the corner spheres meet everything: the variant Drake's AutoDiffXd can step through
+    (it has no Box-Box or Box-Capsule point queries).
+    """
+
+    sphere_radius: float
+    box_shape: bool = True
+
+
+def _corner_offsets(box: BoxObject, radius: float) -> np.ndarray:
+    half = np.asarray(box.size) / 2 - radius
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    return signs * half
+
+
+def _register_box_geometry(plant: MultibodyPlant, body, box: BoxObject, config: WorldConfig,
+                           compliant: bool, point: PointContactBoxes | None) -> dict:
+    """Collision geometry of one box; returns the ids as {"box": [...], "spheres": [...]}."""
+    ids = {"box": [], "spheres": []}
+    if point is None or point.box_shape:
+        ids["box"].append(plant.RegisterCollisionGeometry(
+            body, RigidTransform(), Box(*box.size), f"{box.name}_collision",
+            _box_proximity(box, config, compliant and point is None)))
+    if point is not None:
+        for i, p_BS in enumerate(_corner_offsets(box, point.sphere_radius)):
+            ids["spheres"].append(plant.RegisterCollisionGeometry(
+                body, RigidTransform(p_BS), Sphere(point.sphere_radius),
+                f"{box.name}_corner{i}", _box_proximity(box, config, False)))
+    return ids
+
+
 def _add_boxes(builder: RobotDiagramBuilder, scene: Scene, config: WorldConfig,
-               compliant: bool) -> ModelInstanceIndex:
+               compliant: bool, frozen: Mapping[str, RigidTransform] | None = None,
+               point: PointContactBoxes | None = None) -> tuple[ModelInstanceIndex, dict]:
     plant = builder.plant()
     instance = plant.AddModelInstance("boxes")
+    ids = {"box": [], "spheres": []}
     for box in scene.boxes:
         inertia = SpatialInertia.SolidBoxWithMass(box.mass, *box.size)
         body = plant.AddRigidBody(box.name, instance, inertia)
-        shape = Box(*box.size)
-        plant.RegisterCollisionGeometry(body, RigidTransform(), shape, f"{box.name}_collision",
-                                        _box_proximity(box, config, compliant))
-        plant.RegisterVisualGeometry(body, RigidTransform(), shape, f"{box.name}_visual",
-                                     np.asarray(box.color))
-        plant.SetDefaultFloatingBaseBodyPose(body, box_rest_pose(scene, box))
-    return instance
+        for kind, new in _register_box_geometry(plant, body, box, config, compliant,
+                                                point).items():
+            ids[kind] += new
+        plant.RegisterVisualGeometry(body, RigidTransform(), Box(*box.size),
+                                     f"{box.name}_visual", np.asarray(box.color))
+        if frozen is not None and box.name in frozen:
+            plant.WeldFrames(plant.world_frame(), body.body_frame(), frozen[box.name])
+        else:
+            plant.SetDefaultFloatingBaseBodyPose(body, box_rest_pose(scene, box))
+    return instance, ids
 
 
 def _geometries(plant: MultibodyPlant, *instances: ModelInstanceIndex) -> GeometrySet:
@@ -199,12 +243,17 @@ def _filter_non_arm_pairs(world_parts: dict, plant: MultibodyPlant, scene_graph)
 
 
 def _new_world(builder: RobotDiagramBuilder, scene: Scene, variant: str, config: WorldConfig,
-               compliant: bool) -> dict:
+               compliant: bool, frozen: Mapping[str, RigidTransform] | None = None,
+               point: PointContactBoxes | None = None) -> dict:
     if variant not in robot_model.VARIANTS:
         known = ", ".join(robot_model.VARIANTS)
         raise ValueError(f"unknown geometry variant {variant!r} ({known})")
-    return {"robot": _add_robot(builder, scene, variant), "shelf": _add_shelf(builder, scene),
-            "boxes": _add_boxes(builder, scene, config, compliant)}
+    unknown = sorted(set(frozen or ()) - {b.name for b in scene.boxes})
+    if unknown:
+        raise ValueError(f"frozen boxes not in the scene: {', '.join(unknown)}")
+    robot, shelf = _add_robot(builder, scene, variant), _add_shelf(builder, scene)
+    boxes, box_geometry = _add_boxes(builder, scene, config, compliant, frozen, point)
+    return {"robot": robot, "shelf": shelf, "boxes": boxes, "box_geometry": box_geometry}
 
 
 def build_planning_world(scene: Scene, variant: str = "capsules",
@@ -247,15 +296,40 @@ def _make_pd_actuators(plant: MultibodyPlant, robot: ModelInstanceIndex,
         actuator.set_controller_gains(PdControllerGains(p=config.arm_kp, d=config.arm_kd))
 
 
+def _filter_point_contact_pairs(parts: dict, plant: MultibodyPlant, scene_graph,
+                                point: PointContactBoxes) -> None:
+    """Corner spheres touch only the shelf and Box shapes everything but the shelf (with
+    ``point.box_shape``); without Box shapes the spheres touch everything."""
+    if not point.box_shape:
+        return
+    spheres = GeometrySet(parts["box_geometry"]["spheres"])
+    box_shapes = GeometrySet(parts["box_geometry"]["box"])
+    everything_else = _geometries(plant, parts["robot"])
+    everything_else.Add(parts["box_geometry"]["box"])
+    scene_graph.collision_filter_manager().Apply(
+        CollisionFilterDeclaration().ExcludeWithin(spheres)
+        .ExcludeBetween(spheres, everything_else)
+        .ExcludeBetween(box_shapes, _geometries(plant, parts["shelf"])))
+
+
 def build_dynamics_world(scene: Scene, variant: str = "capsules",
-                         config: WorldConfig | None = None, meshcat=None) -> World:
-    """phi's world: discrete SAP, hydroelastic compliant boxes, rigid shelf, PD-tracked arm."""
+                         config: WorldConfig | None = None, meshcat=None, *,
+                         frozen_boxes: Mapping[str, RigidTransform] | None = None,
+                         point_contact: PointContactBoxes | None = None) -> World:
+    """phi's world: discrete SAP, hydroelastic compliant boxes, rigid shelf, PD-tracked arm.
+
+    ``frozen_boxes`` (name -> X_WB) welds those boxes to W at the given poses: static geometry
+    that other bodies still touch (phi keeps only the boxes a trajectory can affect dynamic).
+    ``point_contact`` replaces the hydroelastic boxes by point-contact ones (see
+    `PointContactBoxes`).
+    """
     config = config or WorldConfig()
     builder = RobotDiagramBuilder(time_step=config.time_step)
     plant = builder.plant()
     plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
-    plant.set_contact_model(ContactModel.kHydroelasticWithFallback)
-    parts = _new_world(builder, scene, variant, config, compliant=True)
+    plant.set_contact_model(ContactModel.kHydroelasticWithFallback if point_contact is None
+                            else ContactModel.kPoint)
+    parts = _new_world(builder, scene, variant, config, True, frozen_boxes, point_contact)
     plant.set_gravity_enabled(parts["robot"], False)
     _make_pd_actuators(plant, parts["robot"], config)
     plant.SetUseSampledOutputPorts(False)
@@ -263,6 +337,8 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
     robot_geometry = _geometries(plant, parts["robot"])
     builder.scene_graph().collision_filter_manager().Apply(
         CollisionFilterDeclaration().ExcludeWithin(robot_geometry))
+    if point_contact is not None:
+        _filter_point_contact_pairs(parts, plant, builder.scene_graph(), point_contact)
     if meshcat is not None:
         _add_meshcat(builder, meshcat)
     diagram = builder.Build()

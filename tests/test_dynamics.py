@@ -1,0 +1,190 @@
+"""phi (dynamics.py) and pruning (pruning.py): state layout, step, rollout, pruning."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from reach_paths import straight_reach
+
+from drake_clutter.config import ConfigError, DynamicsConfig
+from drake_clutter.dynamics import (
+    ARM_DIM,
+    Phi,
+    StateLayout,
+    initial_state,
+    make_spec,
+    pose_to_box_state,
+    scene_box_states,
+)
+from drake_clutter.generators import generate_scene
+from drake_clutter.pruning import make_pruned_spec, prune, swept_samples
+from drake_clutter.trajectory import robot_positions
+
+finite = st.floats(-1.0, 1.0, allow_nan=False)
+
+
+@pytest.fixture(scope="module")
+def scene10():
+    return generate_scene("bookshelf", 10, seed=0)
+
+
+@pytest.fixture(scope="module")
+def reach10(scene10):
+    path = straight_reach(scene10)
+    assert path is not None
+    return path
+
+
+@pytest.fixture(scope="module")
+def pruned10(scene10, reach10):
+    spec, report = make_pruned_spec(scene10, reach10, config=DynamicsConfig(workers=0))
+    phi = Phi(spec)
+    x0 = phi.settle(initial_state(spec.layout, reach10[0], scene_box_states(scene10)))
+    return spec, report, phi, x0, phi.rollout(x0, reach10[1:])
+
+
+def _random_state(layout: StateLayout, rng) -> np.ndarray:
+    boxes = []
+    for _ in range(layout.num_boxes):
+        q = rng.normal(size=4)
+        q *= np.sign(q[0])  # phi's states keep w >= 0
+        boxes.append(np.concatenate([q / np.linalg.norm(q), rng.normal(size=9)]))
+    return layout.join(rng.normal(size=ARM_DIM), np.array(boxes))
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**31), st.lists(finite, min_size=32, max_size=32))
+def test_retract_and_difference_are_inverse(seed, values):
+    layout = StateLayout(("a", "b"))
+    x = _random_state(layout, np.random.default_rng(seed))
+    dx = np.array(values)
+    dx[ARM_DIM:] *= 0.5  # rotation vectors well inside the injectivity radius
+    np.testing.assert_allclose(layout.difference(layout.retract(x, dx), x), dx, atol=1e-9)
+
+
+def test_tangent_maps_match_retract_to_first_order():
+    layout = StateLayout(("a", "b", "c"))
+    rng = np.random.default_rng(1)
+    x = _random_state(layout, rng)
+    G, P = layout.tangent_to_state(x), layout.state_to_tangent(x)
+    np.testing.assert_allclose(P @ G, np.eye(layout.ndx), atol=1e-12)
+    dx = rng.normal(size=layout.ndx) * 1e-6
+    np.testing.assert_allclose(layout.retract(x, dx) - x, G @ dx, atol=1e-11)
+    # The quaternion's own direction (a change of norm only) is not a motion.
+    q_dir = np.zeros(layout.nx)
+    q_dir[ARM_DIM:ARM_DIM + 4] = layout.boxes(x)[0, :4]
+    np.testing.assert_allclose(P @ q_dir, 0.0, atol=1e-12)
+
+
+def test_pose_state_round_trip(scene10):
+    spec = make_spec(scene10, [b.name for b in scene10.boxes[:3]])
+    x = initial_state(spec.layout, np.zeros(8), scene_box_states(scene10))
+    for name in spec.dynamic_boxes:
+        X = spec.layout.box_pose(x, name)
+        np.testing.assert_allclose(pose_to_box_state(X), scene_box_states(scene10)[name],
+                                   atol=1e-12)
+    assert spec.layout.nx == 8 + 13 * 3 and spec.layout.ndx == 8 + 12 * 3
+
+
+def test_step_is_deterministic_and_the_arm_kinematic(pruned10, reach10):
+    spec, _, phi, _, xs = pruned10
+    t = 20
+    first = phi.step(xs[t], reach10[t + 1])
+    phi.step(xs[3], reach10[4])  # something else in between
+    again = phi.step(xs[t], reach10[t + 1])
+    assert np.array_equal(first, again)
+    assert np.array_equal(first, xs[t + 1])
+    np.testing.assert_array_equal(first[:ARM_DIM], reach10[t + 1])
+    # The PD servos really carried the simulated arm there (kinematic within tracking).
+    tracked = phi.world.robot_positions(phi.context)
+    np.testing.assert_allclose(tracked, robot_positions(reach10[t + 1]), atol=2e-3)
+
+
+def test_settled_boxes_stay_put_under_a_still_arm(pruned10, reach10):
+    spec, _, phi, x0, _ = pruned10
+    hold = np.tile(reach10[0], (5, 1))
+    xs = phi.rollout(x0, hold)
+    boxes0, boxes1 = spec.layout.boxes(xs[0]), spec.layout.boxes(xs[-1])
+    assert np.max(np.abs(boxes1[:, 4:7] - boxes0[:, 4:7])) < 1e-5  # m in 1 s
+    assert np.max(np.abs(boxes1[:, 7:])) < 1e-6  # m/s, rad/s
+
+
+def test_reach_pushes_kept_boxes_and_frozen_boxes_are_welded(pruned10, scene10):
+    spec, report, phi, _, xs = pruned10
+    assert 0 < len(report.kept) < len(scene10.boxes)
+    assert "target" in report.kept
+    assert phi.plant.num_positions() == 9 + 7 * len(report.kept)
+    moved = np.linalg.norm(spec.layout.boxes(xs[-1])[:, 4:7] - spec.layout.boxes(xs[0])[:, 4:7],
+                           axis=1)
+    assert moved.max() > 0.02  # the straight reach shoves something
+    for name, pose in spec.frozen:
+        X = phi.world.X_WBox(phi.context, name)
+        np.testing.assert_allclose(X.translation(), pose[4:], atol=1e-12)
+
+
+@pytest.mark.slow
+def test_pruned_phi_agrees_with_the_full_scene(pruned10, scene10, reach10):
+    """Boxes pruning froze barely move in the unpruned phi, and the kept ones end close."""
+    spec, report, _, _, xs = pruned10
+    full = Phi(make_spec(scene10, [b.name for b in scene10.boxes]))
+    states = scene_box_states(scene10)
+    x_full = full.settle(initial_state(full.layout, reach10[0], states))
+    end = full.layout.boxes(full.rollout(x_full, reach10[1:])[-1])
+    start = full.layout.boxes(x_full)
+    for i, name in enumerate(full.layout.box_names):
+        shift = np.linalg.norm(end[i, 4:7] - start[i, 4:7])
+        if name in report.kept:
+            pruned_end = spec.layout.boxes(xs[-1])[spec.layout.box_index(name), 4:7]
+            print(name, "kept", np.linalg.norm(pruned_end - end[i, 4:7]), shift)
+            pass
+        else:
+            assert shift < 2e-3, name
+
+
+def test_pruning_keeps_more_boxes_in_denser_scenes():
+    kept = []
+    for n in (5, 15, 25):
+        scene = generate_scene("bookshelf", n, seed=0)
+        path = straight_reach(scene)
+        report = prune(scene, path)
+        assert set(report.near_arm) <= set(report.kept)
+        assert "target" in report.near_arm
+        kept.append(len(report.kept))
+        assert len(report.kept) < n or n <= 5
+    assert kept == sorted(kept)
+
+
+def test_pruning_grows_transitively_with_the_contact_range(scene10, reach10):
+    tight = prune(scene10, reach10, config=DynamicsConfig(prune_contact_range=0.0))
+    wide = prune(scene10, reach10, config=DynamicsConfig(prune_contact_range=0.05))
+    assert set(tight.kept) == set(tight.near_arm)
+    assert set(tight.kept) < set(wide.kept)
+    assert wide.near_arm == tight.near_arm
+
+
+def test_swept_samples_interpolate_between_knots():
+    path = np.array([[0.0] * 8, [1.0] * 8, [3.0] * 8])
+    samples = swept_samples(path, 4)
+    assert samples.shape == (9, 8)
+    np.testing.assert_allclose(samples[:, 0], [0, 0.25, 0.5, 0.75, 1, 1.5, 2, 2.5, 3])
+
+
+def test_a_failed_simulation_is_a_nan_state_not_an_exception(pruned10, reach10):
+    spec, _, phi, x0, _ = pruned10
+    bad = x0.copy()
+    bad[ARM_DIM + 4] = np.nan  # a box position
+    before = phi.failures
+    out = phi.step(bad, reach10[1])
+    assert out.shape == x0.shape and np.all(np.isnan(out))
+    assert phi.failures == before + 1
+    assert np.all(np.isfinite(phi.step(x0, reach10[1])))  # and phi still works
+
+
+@pytest.mark.parametrize("field, value", [("substeps", 0), ("fd_step", 0.0), ("workers", -1),
+                                          ("derivative_stride", 0)])
+def test_bad_dynamics_config_names_the_field(scene10, field, value):
+    config = DynamicsConfig(**{field: value})
+    with pytest.raises(ConfigError, match=f"dynamics.{field}"):
+        Phi(make_spec(scene10, ["target"], config=config))

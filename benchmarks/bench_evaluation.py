@@ -20,7 +20,6 @@ import argparse
 import time
 
 import numpy as np
-import pybullet as pb
 from pydrake.math import RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.solvers import Solve
@@ -82,7 +81,7 @@ def bare_stepping(scene: Scene, steps: int, config: EvaluationConfig) -> float:
         bw.command_velocities(world, np.zeros(len(q)), bw.motor_forces(config))
         started = time.perf_counter()
         for _ in range(steps):
-            pb.stepSimulation(physicsClientId=world.client)
+            bw.pb.stepSimulation(physicsClientId=world.client)
         return time.perf_counter() - started
 
 

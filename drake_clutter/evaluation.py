@@ -14,13 +14,18 @@ counterbalance), and the paper's failure modes are defined for an arm that goes 
 says. The fingers use the PR2's finger effort (N), so a box between them stops them as it would
 stop the real gripper. After the last knot the arm holds still and the simulation runs until
 every box is at rest (``rest_speed``, ``rest_angular_speed`` for ``rest_hold_time``) or
-``settle_time_cap`` has passed.
+``settle_time_cap`` has passed (then ``Outcome.settled`` is False and the classes below are
+taken on the state at the cap).
 
 Classes (Sec. III) and thresholds (`EvaluationConfig`):
 
-* grasped - at the end the target is in the pre-grasp zone of the open gripper (`grasp_check`)
-  and no other box reaches into that zone;
-* tipped - a box's z axis is tilted more than ``max_tilt`` from W's z;
+* grasped - at the end the target is in the pre-grasp zone of the gripper: a box in the tool
+  frame G between the pads' inner faces, along the pads' length extended by ``zone_margin``
+  and over the pads' height (`zone_extent`); the target's centre lies within its length, the
+  target fits between the pads and spans their height (`target_zone_reason`); and no other box
+  reaches into the zone by more than ``intrusion_tolerance`` (`grasp_check`);
+* tipped - an obstacle's z axis is tilted more than ``max_tilt`` from W's z (a toppled target
+  fails the grasp test instead);
 * fallen - a box's centre is off the board's footprint or below its top surface;
 * kinematic failure - the plan leaves the PR2's joint position/velocity limits (checked before
   simulating), or while simulating: an arm joint lags its planned position by more than
@@ -145,6 +150,28 @@ class Outcome:
                 "settled": self.settled,
                 "lift": None if self.lift is None else self.lift.to_data(),
                 "wall_time": self.wall_time}
+
+    @staticmethod
+    def from_data(data: dict) -> Outcome:
+        """Inverse of `to_data` (KeyError/TypeError/ValueError on malformed data)."""
+        if data["kind"] not in OUTCOME_KINDS:
+            raise ValueError(f"unknown outcome kind {data['kind']!r}")
+        grasp, lift = data.get("grasp"), data.get("lift")
+        return Outcome(
+            kind=data["kind"], reason=str(data["reason"]),
+            boxes=tuple(BoxOutcome(**{**b, "final_position": tuple(b["final_position"])})
+                        for b in data.get("boxes", [])),
+            grasp=None if grasp is None else GraspCheck(**{
+                **grasp, "p_GT": tuple(grasp["p_GT"]), "intruders": tuple(grasp["intruders"])}),
+            forces={k: float(v) for k, v in data.get("forces", {}).items()},
+            tracking_error=float(data.get("tracking_error", 0.0)),
+            finger_error=float(data.get("finger_error", 0.0)),
+            simulated_time=float(data.get("simulated_time", 0.0)),
+            trajectory_time=float(data.get("trajectory_time", 0.0)),
+            settled=bool(data.get("settled", False)),
+            lift=None if lift is None else LiftResult(
+                **{**lift, "others_lifted": tuple(lift["others_lifted"])}),
+            wall_time=float(data.get("wall_time", 0.0)))
 
 
 # ----------------------------------------------------------------------------- classification

@@ -25,6 +25,7 @@ from drake_clutter import robot_model
 from drake_clutter.cli import main
 from drake_clutter.config import EvaluationConfig
 from drake_clutter.evaluation import (
+    Outcome,
     classify,
     evaluate,
     evaluate_candidates,
@@ -185,6 +186,9 @@ def test_outcome_is_json_serialisable(clean_outcome):
     data = json.loads(json.dumps(clean_outcome.to_data()))
     assert data["kind"] == "success" and data["lift"]["lifted"] is True
     assert {b["name"] for b in data["boxes"]} == {"target", "far"}
+    assert Outcome.from_data(data) == clean_outcome
+    with pytest.raises(ValueError, match="unknown outcome kind"):
+        Outcome.from_data({**data, "kind": "won"})
 
 
 def test_reach_that_stops_short_is_failure_to_grasp(clean_reach):
@@ -252,6 +256,15 @@ def test_box_pressed_into_the_back_wall_is_kinematic_failure():
     assert outcome.kind == "kinematic_failure", outcome.reason
     assert "box 'block' pushed into static geometry" in outcome.reason
     assert outcome.forces["box_static_excess_mean"] > CONFIG.max_static_force
+
+
+def test_an_arm_that_cannot_follow_is_kinematic_failure(clean_reach):
+    # With motors as weak as 5 N m the arm sags under gravity: the lag must be caught.
+    weak = replace(CONFIG, arm_max_force=5.0)
+    outcome = evaluate(*clean_reach, weak)
+    assert outcome.kind == "kinematic_failure", outcome.reason
+    assert "cannot follow the trajectory" in outcome.reason
+    assert outcome.tracking_error > CONFIG.max_tracking_error
 
 
 def test_plan_beyond_the_velocity_limits_fails_without_simulating(clean_reach):
@@ -375,7 +388,8 @@ def test_bullet_world_matches_the_scene(dense_world):
 
 
 def test_bullet_arm_is_placed_like_the_drake_arm():
-    scene = generate_scene("bookshelf", 1, seed=5)
+    scene = replace(generate_scene("bookshelf", 1, seed=5),
+                    robot=RobotPlacement(base_pose=(0.05, 0.15, 0.3), torso_height=0.25))
     drake_world = build_planning_world(scene, "evaluation")
     context = drake_world.plant.CreateDefaultContext()
     q_robot = np.r_[NOMINAL_ARM, 0.03, 0.03]

@@ -25,6 +25,7 @@ from drake_clutter import robot_model
 from drake_clutter.cli import main
 from drake_clutter.config import EvaluationConfig
 from drake_clutter.evaluation import (
+    OUTCOME_KINDS,
     Outcome,
     classify,
     evaluate,
@@ -115,12 +116,14 @@ class _Reach:
         raise AssertionError(f"no IK solution at {p_WG}")
 
 
-def scripted_reach(scene: Scene, waypoints, speed=0.1, opening=0.09, step=0.01) -> Trajectory:
-    """The tool frame through (x, y) waypoints (W) at HAND_Z, straight segments at ``speed``
-    m/s, the gripper open by ``opening`` m: IK every ``step`` m, linear in joint space between."""
-    points = [np.array([*waypoints[0], HAND_Z])]
+def scripted_reach(scene: Scene, waypoints, speed=0.1, opening=0.09, step=0.01,
+                   z=HAND_Z) -> Trajectory:
+    """The tool frame through (x, y) waypoints (W) at height ``z``, straight segments at
+    ``speed`` m/s, the gripper open by ``opening`` m: IK every ``step`` m, linear in joint
+    space between."""
+    points = [np.array([*waypoints[0], z])]
     for a, b in zip(waypoints[:-1], waypoints[1:], strict=True):
-        a, b = np.array([*a, HAND_Z]), np.array([*b, HAND_Z])
+        a, b = np.array([*a, z]), np.array([*b, z])
         n = max(1, math.ceil(np.linalg.norm(b - a) / step))
         points += [a + (b - a) * k / n for k in range(1, n + 1)]
     reach = _Reach(scene)
@@ -283,6 +286,31 @@ def test_candidates_without_trajectory_are_planner_failures(clean_reach):
     assert [o.kind for o in outcomes] == ["planner_failure", "success"]
     assert outcomes[0].reason == "ik_failed: no IK solution"
     assert scene_score(o.kind for o in outcomes) == "success"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind,objects", [("bookshelf", 25), ("fridge", 16)])
+def test_straight_reaches_into_dense_generated_scenes(kind, objects):
+    # Behaviour on real scenes: straight reaches at the target's mid-height from the front edge
+    # into the densest clutter levels give valid, reproducible, JSON-round-tripping outcomes.
+    kinds = []
+    for seed in range(4):
+        scene = generate_scene(kind, objects, seed)
+        target = scene.target_box
+        z = scene.shelf.top_height + target.size[2] / 2
+        try:
+            plan = scripted_reach(scene, [(scene.shelf.front_x + 0.03, target.pose[1]),
+                                          target.pose[:2]], z=z, step=0.03)
+        except AssertionError:
+            continue  # no IK solution for this straight line
+        outcome = evaluate(scene, plan, CONFIG)
+        assert outcome.kind in OUTCOME_KINDS[:5] and len(outcome.boxes) == objects
+        assert outcome.simulated_time <= plan.duration + CONFIG.settle_time_cap + 0.05
+        again = evaluate(scene, plan, CONFIG)
+        assert replace(again, wall_time=0.0) == replace(outcome, wall_time=0.0)
+        assert Outcome.from_data(json.loads(json.dumps(outcome.to_data()))) == outcome
+        kinds.append(outcome.kind)
+    assert len(kinds) >= 2, "too few scenes with an IK solution to say anything"
 
 
 # ----------------------------------------------------------------------------- pure parts

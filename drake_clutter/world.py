@@ -175,8 +175,8 @@ class PointContactBoxes:
     A sphere of ``sphere_radius`` sits inside each of a box's 8 corners, flush with its faces,
     and alone touches the shelf (point contact of a Box shape on a board jitters at rest; four
     spheres settle). With ``box_shape`` the Box itself meets the arm and the other boxes; without
-    it the corner spheres meet everything: the variant Drake's AutoDiffXd can step through
-    (it has no Box-Box or Box-Capsule point queries).
+    it the corner spheres meet everything and the arm passes through the shelf: the variant
+    Drake's AutoDiffXd can step through (it has no Box-Box or Box-Capsule point queries).
     """
 
     sphere_radius: float
@@ -299,8 +299,12 @@ def _make_pd_actuators(plant: MultibodyPlant, robot: ModelInstanceIndex,
 def _filter_point_contact_pairs(parts: dict, plant: MultibodyPlant, scene_graph,
                                 point: PointContactBoxes) -> None:
     """Corner spheres touch only the shelf and Box shapes everything but the shelf (with
-    ``point.box_shape``); without Box shapes the spheres touch everything."""
+    ``point.box_shape``). Without Box shapes the spheres touch everything and the arm does not
+    touch the shelf: AutoDiffXd penetration queries throw for every Capsule-Box candidate pair,
+    even one that does not touch (the AutoDiffXd variant suits paths clear of the shelf)."""
     if not point.box_shape:
+        scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().ExcludeBetween(
+            _geometries(plant, parts["robot"]), _geometries(plant, parts["shelf"])))
         return
     spheres = GeometrySet(parts["box_geometry"]["spheres"])
     box_shapes = GeometrySet(parts["box_geometry"]["box"])

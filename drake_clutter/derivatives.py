@@ -1,0 +1,423 @@
+"""phi's Jacobians A_t = dphi/dx and B_t = dphi/du by finite differences (Sec. V), made fast
+enough for iLQR. The step is ``DynamicsConfig.fd_step`` (1e-5 here, 1e-6 in the paper: see
+the config's comment), forward or central (``fd_scheme``).
+
+Brute force perturbs every column of [x, u] (ndx + nu + 1 phi evaluations per knot). Here:
+
+1. Interaction graph. Every traced step records which bodies (the arm, each kept box) came
+   within ``interaction_margin`` of each other at the start of some sub-step; bodies in
+   different connected components cannot affect each other within the knot.
+2. Known blocks. The arm is kinematic, so its rows are exact (0 in A, I in B); when the arm
+   touches nothing its columns move nothing else, so they cost no evaluation. A box that
+   touches nothing moving and has the same state (within ``known_block_tolerance``) as at an
+   earlier knot reuses that knot's Jacobian block (a resting box: most boxes at most knots).
+3. Colouring. The columns still needed are grouped so that each group perturbs at most one
+   column per component (Curtis-Powell-Reid: no row sees two perturbed columns); one phi
+   evaluation per group, so a knot costs as many evaluations as its largest component has
+   columns, not ndx + nu.
+4. Parallel workers. Groups are evaluated in ``workers`` spawned processes that each build their
+   plant and context once per phi (tasks carry only the spec and numpy arrays).
+5. Stride. With ``derivative_stride`` k > 1 only every k-th knot (and the last) is
+   differentiated; A and B are interpolated linearly (in tangent coordinates) between them.
+
+Jacobians live in tangent coordinates (`dynamics.StateLayout`: rotations as rotation vectors
+in W); `PhiDynamics.linearize` maps them to state coordinates (quaternions) for a solver that
+differences states plainly, `PhiDynamics.linearize_tangent` returns them as they are.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+
+from drake_clutter.dynamics import ARM_DIM, ARM_NODE, BOX_TANGENT, NU, Phi, PhiSpec, StateLayout
+
+# ----------------------------------------------------------------------------- columns
+
+
+def node_columns(layout: StateLayout, node: int) -> list[int]:
+    """Columns of [dx, du] (ndx + nu) owned by an interaction node."""
+    if node == ARM_NODE:
+        return list(range(ARM_DIM)) + list(range(layout.ndx, layout.ndx + NU))
+    start = ARM_DIM + BOX_TANGENT * (node - 1)
+    return list(range(start, start + BOX_TANGENT))
+
+
+def node_rows(layout: StateLayout, node: int) -> np.ndarray:
+    """Tangent rows of an interaction node."""
+    if node == ARM_NODE:
+        return np.arange(ARM_DIM)
+    return np.arange(ARM_DIM + BOX_TANGENT * (node - 1), ARM_DIM + BOX_TANGENT * node)
+
+
+def components(num_nodes: int, edges) -> list[list[int]]:
+    """Connected components (sorted node lists) of the interaction graph over the arm and
+    the kept boxes (edges to frozen boxes, negative nodes, are static contacts: ignored)."""
+    edges = [(a, b) for a, b in edges if a >= 0 and b >= 0]
+    rows = [a for a, _ in edges]
+    cols = [b for _, b in edges]
+    graph = coo_matrix((np.ones(len(edges)), (rows, cols)), shape=(num_nodes, num_nodes))
+    count, labels = connected_components(graph, directed=False)
+    return [sorted(np.flatnonzero(labels == c).tolist()) for c in range(count)]
+
+
+def colour_groups(column_lists: list[list[int]]) -> list[list[int]]:
+    """Groups of columns to perturb together: group g takes the g-th column of every list
+    (the lists belong to different components, so no row sees two of a group's columns)."""
+    depth = max((len(c) for c in column_lists), default=0)
+    return [[cols[g] for cols in column_lists if g < len(cols)] for g in range(depth)]
+
+
+# ----------------------------------------------------------------------------- evaluation
+
+
+def perturbed(layout: StateLayout, x, u, columns, step: float):
+    """(x (+) step e_cols, u + step e_cols) for tangent/control column indices."""
+    dx = np.zeros(layout.ndx + NU)
+    dx[list(columns)] = step
+    return layout.retract(x, dx[:layout.ndx]), np.asarray(u, dtype=float) + dx[layout.ndx:]
+
+
+def group_differences(phi: Phi, x, u, x_next, groups, step: float, scheme: str) -> np.ndarray:
+    """Difference quotients (len(groups), ndx) of phi for each group of columns perturbed
+    together: forward (phi(x + h e) (-) phi(x)) / h or central (phi(x + h e) (-) phi(x - h e))
+    / 2h. A failed evaluation gives a row of NaN."""
+    layout = phi.layout
+    out = np.empty((len(groups), layout.ndx))
+    for g, cols in enumerate(groups):
+        xp, up = perturbed(layout, x, u, cols, step)
+        plus = phi.step(xp, up)
+        if scheme == "central":
+            xm, um = perturbed(layout, x, u, cols, -step)
+            out[g] = layout.difference(plus, phi.step(xm, um)) / (2 * step)
+        else:
+            out[g] = layout.difference(plus, x_next) / step
+    return out
+
+
+def dense_jacobians(phi: Phi, x, u, step: float = 1e-6, scheme: str = "forward"):
+    """Brute force: every column perturbed alone; (A (ndx, ndx), B (ndx, nu)) in tangent
+    coordinates, ndx + nu + 1 phi evaluations (2 (ndx + nu) central)."""
+    layout = phi.layout
+    x_next = phi.step(x, u) if scheme == "forward" else None
+    cols = [[c] for c in range(layout.ndx + NU)]
+    D = group_differences(phi, x, u, x_next, cols, step, scheme).T
+    return D[:, :layout.ndx], D[:, layout.ndx:]
+
+
+# ----------------------------------------------------------------------------- workers
+
+_WORKER_PHIS: OrderedDict = OrderedDict()  # in each worker process: spec key -> Phi
+_WORKER_CACHE_SIZE = 3
+
+
+def _worker_phi(key: str, spec: PhiSpec) -> Phi:
+    phi = _WORKER_PHIS.get(key)
+    if phi is None:
+        phi = _WORKER_PHIS[key] = Phi(spec)
+        while len(_WORKER_PHIS) > _WORKER_CACHE_SIZE:
+            _WORKER_PHIS.popitem(last=False)
+    _WORKER_PHIS.move_to_end(key)
+    return phi
+
+
+def _run_task(task):
+    """Worker entry point: ('trace', key, spec, x, u) or ('groups', key, spec, x, u, x_next,
+    groups, step, scheme)."""
+    kind, key, spec, *args = task
+    phi = _worker_phi(key, spec)
+    if kind == "trace":
+        return phi.step_traced(*args)
+    return group_differences(phi, *args)
+
+
+class WorkerPool:
+    """Spawned worker processes for phi evaluations; each builds a Phi once per spec.
+
+    'spawn' (not fork): pydrake objects are not fork-safe. Start-up (Python + pydrake import)
+    takes a second or two per worker and happens on first use; reuse one pool across specs.
+    """
+
+    def __init__(self, workers: int):
+        if workers < 1:
+            raise ValueError(f"a worker pool needs at least 1 worker, got {workers}")
+        self.workers = workers
+        self._pool = None
+
+    def _started(self):
+        if self._pool is None:
+            self._pool = multiprocessing.get_context("spawn").Pool(self.workers)
+        return self._pool
+
+    def map(self, tasks: list) -> list:
+        """Runs tasks (see `_run_task`) in the workers, results in task order."""
+        return self._started().map(_run_task, tasks, chunksize=1)
+
+    def warm_up(self, spec: PhiSpec) -> None:
+        """Starts the workers and has them build ``spec``'s Phi (a timing convenience: a
+        worker that takes none of these tasks builds it on first use)."""
+        self._started().map(_build_only, [(spec.key, spec)] * (2 * self.workers), chunksize=1)
+
+    def close(self) -> None:
+        """Stops the workers."""
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _build_only(args) -> bool:
+    _worker_phi(*args)
+    return True
+
+
+# ----------------------------------------------------------------------------- linearizer
+
+
+@dataclass
+class LinearizeStats:
+    """What the last `PhiDynamics.linearize` did."""
+
+    knots: int = 0
+    differentiated_knots: int = 0
+    evaluations: list[int] = field(default_factory=list)  # phi evaluations per knot
+    known_boxes: int = 0  # isolated-box blocks reused from earlier knots
+    traced: int = 0  # knots whose nominal step had to be traced again
+    failed_evaluations: int = 0
+    seconds: float = 0.0
+
+    @property
+    def mean_evaluations(self) -> float:
+        """Mean phi evaluations per differentiated knot, the nominal step included."""
+        return float(np.mean(self.evaluations)) if self.evaluations else 0.0
+
+
+@dataclass
+class _KnotWork:
+    t: int
+    x: np.ndarray
+    u: np.ndarray
+    x_next: np.ndarray
+    fd_components: list[list[int]]
+    groups: list[list[int]]
+    known: dict[int, np.ndarray]  # box index -> 12x12 block reused from an earlier call
+    copies: dict[int, int] = field(default_factory=dict)  # box index -> earlier knot t whose
+    # block (differentiated in this call) it reuses
+
+
+class PhiDynamics:
+    """phi for iLQR (`ilqr.Dynamics`): ``step(t, x, u)``, ``rollout``, ``linearize``.
+
+    Owns an in-process `Phi` for steps and, with ``config.workers`` > 0, uses a `WorkerPool`
+    (its own, or a shared one passed in) for derivatives. Call `close` (or use ``with``) to stop
+    an owned pool.
+    """
+
+    def __init__(self, spec: PhiSpec, pool: WorkerPool | None = None):
+        self.spec = spec
+        self.config = spec.config
+        self.layout = spec.layout
+        self.phi = Phi(spec)
+        self._own_pool = pool is None and self.config.workers > 0
+        self.pool = WorkerPool(self.config.workers) if self._own_pool else pool
+        self._steps: OrderedDict = OrderedDict()
+        self._known: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self.stats = LinearizeStats()
+
+    # -- dynamics
+
+    def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """phi(x, u) (``t`` is unused: phi is time-invariant); remembered for linearize."""
+        return self._traced(x, u)[0].copy()
+
+    def rollout(self, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
+        """States x_0..x_T of controls ``us`` (T, 8) from x0."""
+        xs = np.empty((len(us) + 1, self.layout.nx))
+        xs[0] = x0
+        for t, u in enumerate(us):
+            xs[t + 1] = self.step(t, xs[t], u)
+        return xs
+
+    def _key(self, x, u) -> tuple[bytes, bytes]:
+        return np.asarray(x, dtype=float).tobytes(), np.asarray(u, dtype=float).tobytes()
+
+    def _traced(self, x, u) -> tuple[np.ndarray, set]:
+        key = self._key(x, u)
+        hit = self._steps.get(key)
+        if hit is None:
+            hit = self._remember(key, self.phi.step_traced(x, u))
+        self._steps.move_to_end(key)
+        return hit
+
+    def _remember(self, key, result) -> tuple[np.ndarray, set]:
+        self._steps[key] = result
+        while len(self._steps) > self.config.step_cache_size:
+            self._steps.popitem(last=False)
+        return result
+
+    # -- derivatives
+
+    def linearize(self, xs: np.ndarray, us: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A (T, nx, nx), B (T, nx, nu) in state coordinates (quaternions): A_t = G(x_{t+1})
+        A~_t G+(x_t), B_t = G(x_{t+1}) B~_t with the tangent Jacobians A~, B~."""
+        A_tan, B_tan = self.linearize_tangent(xs, us)
+        A = np.empty((len(us), self.layout.nx, self.layout.nx))
+        B = np.empty((len(us), self.layout.nx, NU))
+        for t in range(len(us)):
+            G_next = self.layout.tangent_to_state(xs[t + 1])
+            A[t] = G_next @ A_tan[t] @ self.layout.state_to_tangent(xs[t])
+            B[t] = G_next @ B_tan[t]
+        return A, B
+
+    def linearize_tangent(self, xs: np.ndarray, us: np.ndarray):
+        """A~ (T, ndx, ndx), B~ (T, ndx, nu) in tangent coordinates about (xs, us)."""
+        tic = time.perf_counter()
+        us = np.atleast_2d(np.asarray(us, dtype=float))
+        T = len(us)
+        knots = differentiated_knots(T, self.config.derivative_stride)
+        self.stats = LinearizeStats(knots=T, differentiated_knots=len(knots))
+        self._trace_missing(xs, us, knots)
+        pending: dict[int, list[tuple[np.ndarray, int]]] = {}
+        work = [self._plan(t, xs[t], us[t], pending) for t in knots]
+        results = self._evaluate(work)
+        A = np.zeros((T, self.layout.ndx, self.layout.ndx))
+        B = np.zeros((T, self.layout.ndx, NU))
+        for w, D in zip(work, results, strict=True):  # in knot order: copies come from earlier
+            for box, source in w.copies.items():
+                w.known[box] = A[source][self.layout.tangent_box_slice(box),
+                                         self.layout.tangent_box_slice(box)]
+            self._assemble(w, D, A[w.t], B[w.t])
+            self.stats.evaluations.append(1 + len(w.groups) * self._evals_per_group())
+        interpolate_between(A, B, knots)
+        self.stats.seconds = time.perf_counter() - tic
+        return A, B
+
+    def _evals_per_group(self) -> int:
+        return 2 if self.config.fd_scheme == "central" else 1
+
+    def _trace_missing(self, xs, us, knots) -> None:
+        missing = [t for t in knots if self._key(xs[t], us[t]) not in self._steps]
+        self.stats.traced = len(missing)
+        if not missing:
+            return
+        if self.pool is None:
+            results = [self.phi.step_traced(xs[t], us[t]) for t in missing]
+        else:
+            key = self.spec.key
+            results = self.pool.map([("trace", key, self.spec, xs[t], us[t]) for t in missing])
+        for t, result in zip(missing, results, strict=True):
+            self._remember(self._key(xs[t], us[t]), result)
+
+    def _plan(self, t: int, x, u, pending: dict) -> _KnotWork:
+        """What knot t needs: components to difference, colour groups, reusable blocks.
+        ``pending`` (box -> [(state, knot)]) collects isolated boxes differenced in this call,
+        so that later knots where the box is in the same state copy their block."""
+        x_next, edges = self._steps[self._key(x, u)]
+        fd, known, copies = [], {}, {}
+        tolerance = self.config.known_block_tolerance
+        for comp in components(self.layout.num_boxes + 1, edges):
+            if comp == [ARM_NODE]:
+                continue  # kinematic arm touching nothing: its block is exact
+            if len(comp) == 1:
+                box = comp[0] - 1
+                state = self.layout.boxes(x)[box]
+                hit = self._known.get(box)
+                if hit is not None and _close(hit[0], state, tolerance):
+                    known[box] = hit[1]
+                    continue
+                source = next((k for s, k in pending.get(box, ()) if _close(s, state, tolerance)),
+                              None)
+                if source is not None:
+                    copies[box] = source
+                    continue
+                pending.setdefault(box, []).append((state, t))
+            fd.append(comp)
+        columns = [sum((node_columns(self.layout, n) for n in comp), []) for comp in fd]
+        self.stats.known_boxes += len(known) + len(copies)
+        return _KnotWork(t, x, u, x_next, fd, colour_groups(columns), known, copies)
+
+    def _evaluate(self, work: list[_KnotWork]) -> list[np.ndarray]:
+        """Difference quotients per knot, (groups, ndx) each; split into tasks for the pool."""
+        h, scheme = self.config.fd_step, self.config.fd_scheme
+        if self.pool is None:
+            return [group_differences(self.phi, w.x, w.u, w.x_next, w.groups, h, scheme)
+                    for w in work]
+        total = sum(len(w.groups) for w in work)
+        chunk = max(1, math.ceil(total / (4 * self.pool.workers)))
+        tasks, owners = [], []
+        for i, w in enumerate(work):
+            for start in range(0, len(w.groups), chunk):
+                tasks.append(("groups", self.spec.key, self.spec, w.x, w.u, w.x_next,
+                              w.groups[start:start + chunk], h, scheme))
+                owners.append(i)
+        parts: list[list[np.ndarray]] = [[] for _ in work]
+        for i, result in zip(owners, self.pool.map(tasks), strict=True):
+            parts[i].append(result)
+        return [np.vstack(p) if p else np.zeros((0, self.layout.ndx)) for p in parts]
+
+    def _assemble(self, w: _KnotWork, D: np.ndarray, A: np.ndarray, B: np.ndarray) -> None:
+        """Scatters a knot's difference quotients into A~_t, B~_t and refreshes known blocks."""
+        layout, ndx = self.layout, self.layout.ndx
+        self.stats.failed_evaluations += int(np.sum(~np.all(np.isfinite(D), axis=1)))
+        J = np.zeros((ndx, ndx + NU))
+        for comp in w.fd_components:
+            rows = np.concatenate([node_rows(layout, n) for n in comp])
+            for g, col in enumerate(sum((node_columns(layout, n) for n in comp), [])):
+                J[rows, col] = D[g, rows]
+        for box, block in w.known.items():
+            s = layout.tangent_box_slice(box)
+            J[s, s] = block
+        for comp in w.fd_components:
+            if len(comp) == 1 and comp[0] != ARM_NODE:
+                s = layout.tangent_box_slice(comp[0] - 1)
+                if np.all(np.isfinite(J[s, s])):
+                    self._known[comp[0] - 1] = (layout.boxes(w.x)[comp[0] - 1].copy(),
+                                                J[s, s].copy())
+        J[:ARM_DIM] = 0.0  # the kinematic arm: x_arm' = u exactly
+        J[:ARM_DIM, ndx:] = np.eye(NU)
+        A[:] = J[:, :ndx]
+        B[:] = J[:, ndx:]
+
+    def close(self) -> None:
+        """Stops an owned worker pool."""
+        if self._own_pool and self.pool is not None:
+            self.pool.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+def _close(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
+    return bool(np.max(np.abs(a - b)) <= tolerance)
+
+
+def differentiated_knots(num_knots: int, stride: int) -> list[int]:
+    """Knots 0, k, 2k, ... and the last one."""
+    if stride < 1:
+        raise ValueError(f"derivative_stride must be at least 1, got {stride}")
+    return sorted(set(range(0, num_knots, stride)) | {num_knots - 1}) if num_knots else []
+
+
+def interpolate_between(A: np.ndarray, B: np.ndarray, knots: list[int]) -> None:
+    """Fills the knots between differentiated ones by linear interpolation, in place."""
+    for k0, k1 in zip(knots[:-1], knots[1:], strict=True):
+        for t in range(k0 + 1, k1):
+            s = (t - k0) / (k1 - k0)
+            A[t] = (1 - s) * A[k0] + s * A[k1]
+            B[t] = (1 - s) * B[k0] + s * B[k1]

@@ -117,6 +117,34 @@ def _cmd_evaluate(args) -> int:
     return 0
 
 
+def _cmd_plan(args) -> int:
+    import dataclasses
+    from pathlib import Path
+
+    from drake_clutter.baseline import candidates_table, check_config, plan_baseline
+    from drake_clutter.scenes import resolve_scene
+    from drake_clutter.trajectory import save_plan
+    from drake_clutter.typed_yaml import to_data
+
+    config = _load_config(args)
+    scene = resolve_scene(args.scene)
+    baseline = config.baseline
+    if args.angles is not None:
+        if args.angles < 1:
+            raise InputError("<command line>", "--angles", f"must be at least 1, got {args.angles}")
+        baseline = dataclasses.replace(baseline, num_angles=args.angles)
+    if not Path(args.out).resolve().parent.is_dir():
+        raise InputError("<command line>", "--out", f"no such directory for {args.out}")
+    check_config(baseline, args.config or "<command line>")
+    candidates = plan_baseline(scene, baseline)
+    save_plan(args.out, scene.name, candidates,
+              extra={"planner": args.planner, "config": {"baseline": to_data(baseline)}})
+    print(candidates_table(candidates))
+    ok = sum(c.ok for c in candidates)
+    print(f"{ok} of {len(candidates)} angles ok ({scene.name}, {args.planner}); wrote {args.out}")
+    return 0
+
+
 def _cmd_config_show(args) -> int:
     from drake_clutter.config import config_to_data
     from drake_clutter.typed_yaml import dump_yaml
@@ -167,6 +195,16 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--out", required=True, help="outcome file (JSON) to write")
     _add_config_args(ev)
     ev.set_defaults(func=_cmd_evaluate)
+
+    plan = groups.add_parser("plan", help="plan approach trajectories for a scene (Sec. IV)")
+    plan.add_argument("scene", help="a scene YAML file or a shipped scene name")
+    plan.add_argument("--planner", choices=("baseline",), default="baseline",
+                      help="the planner (default: baseline, Sec. IV)")
+    plan.add_argument("--angles", type=int,
+                      help="number of approach angles (default: baseline.num_angles)")
+    plan.add_argument("--out", required=True, help="plan file (JSON) to write")
+    _add_config_args(plan)
+    plan.set_defaults(func=_cmd_plan)
 
     cfg = groups.add_parser("config", help="inspect the configuration")
     cfg_cmds = cfg.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)

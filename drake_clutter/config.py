@@ -113,6 +113,35 @@ class BaselineConfig:
     d_safe: float = 0.02  # m, penetration margin of the collision costs (Table I); ours
     check_substeps: int = 10  # dense check samples per knot interval (issue 3)
     check_tolerance: float = 0.001  # m of penetration the dense check accepts (issue 3)
+    # Approach poses (Sec. IV leaves them open; all ours).
+    grasp_height_fraction: float = 0.5  # h = this x target height: grip the box mid-height
+    pose_clearance: float = 0.005  # m beyond d_safe between the gripper proxies and the board
+    # (below the pre-grasp pose; in front of its edge at the start on line l)
+    # IK of the two end poses (ours): tight pose tolerances, clear of the shelf.
+    ik_position_tolerance: float = 1e-4  # m, box around the wanted tool-frame position
+    ik_orientation_tolerance: float = 1e-3  # rad, angle to the wanted tool-frame rotation
+    ik_min_distance: float = 0.01  # m, arm-vs-shelf signed distance at both ends (< d_safe)
+    ik_influence_distance: float = 0.05  # m, pairs farther than this are ignored by IK
+    ik_near_weight: float = 1.0  # weight of ||q_start - q_pregrasp||^2 in the start's IK
+    ik_max_iterations: int = 200  # SNOPT major / IPOPT iterations per IK attempt
+    ik_nominal_postures: tuple[tuple[float, ...], ...] = (  # rad, arm seeds after neighbours':
+        (-0.12, -0.19, -2.51, -1.99, -2.37, -2.14, -0.32),  # the medoids of three clusters of
+        (-0.27, -0.35, -3.15, -2.07, 2.22, -1.67, -0.12),  # pre-grasp solutions found on six
+        (-0.70, 0.43, -1.57, -1.63, 2.77, -0.42, -1.64))  # generated scenes
+    ik_random_seeds: int = 4  # further seeds, uniform within the joint limits
+    ik_seed: int = 0  # random seed of those (plus the angle's index)
+    # Path optimisation (ours; Sec. IV uses SQP [30]).
+    opt_substeps: int = 2  # configurations per knot interval in c_static_hull
+    opt_control_points: int = 10  # B-spline control points whose samples are the knots
+    opt_spline_order: int = 4  # B-spline order (4 = cubic)
+    fix_last_knot: bool = False  # True: last knot = the pre-grasp IK solution; False: free
+    # under tool-frame pose constraints (Sec. IV's formulation)
+    opt_max_iterations: int = 100  # SNOPT major / IPOPT iterations
+    opt_optimality_tolerance: float = 1e-3  # SNOPT major optimality / IPOPT tol
+    # The optimised last knot keeps the pre-grasp pose when within these (5x the IK
+    # tolerances: room for the solvers' feasibility slack, well inside 1 mm and 0.01 rad).
+    terminal_position_tolerance: float = 5e-4  # m
+    terminal_rotation_tolerance: float = 5e-3  # rad
 
 
 @dataclass(frozen=True)

@@ -219,22 +219,27 @@ class PoseIk:
         prog = ik.get_mutable_prog()
         index = world.robot_position_indices()
         arm = q[index[:ARM_DOF]]
-        lower, upper = self.lower.copy(), self.upper.copy()
-        centre = seed if q_near is None else q_near
-        seed = seed.copy()
-        for i in CONTINUOUS_JOINTS:  # within pi of q_near (else the seed): no wrapped branch
-            lower[i], upper[i] = centre[i] - np.pi, centre[i] + np.pi
-            seed[i] = centre[i] + (seed[i] - centre[i] + np.pi) % (2 * np.pi) - np.pi
+        lower, upper, seed = self._bounds_and_seed(seed, q_near)
         prog.AddBoundingBoxConstraint(lower, upper, arm)
         finger = robot_model.finger_joint_position(robot_model.GRIPPER_MAX_OPENING)
         prog.AddBoundingBoxConstraint(finger, finger, q[index[ARM_DOF:]])
         if q_near is not None:
             prog.AddQuadraticErrorCost(config.ik_near_weight * np.eye(ARM_DOF), q_near, arm)
         q_guess = np.zeros(world.plant.num_positions())
-        q_guess[index] = world.robot_q(np.clip(seed, lower, upper),
-                                       robot_model.GRIPPER_MAX_OPENING)
+        q_guess[index] = world.robot_q(seed, robot_model.GRIPPER_MAX_OPENING)
         prog.SetInitialGuess(q, q_guess)
         return prog, arm
+
+    def _bounds_and_seed(self, seed: np.ndarray, q_near: np.ndarray | None):
+        """Joint bounds, continuous joints within pi of ``q_near`` (else of the seed, so no
+        solution jumps a turn), and the seed wrapped and clipped into them."""
+        lower, upper = self.lower.copy(), self.upper.copy()
+        centre = seed if q_near is None else q_near
+        seed = seed.copy()
+        for i in CONTINUOUS_JOINTS:
+            lower[i], upper[i] = centre[i] - np.pi, centre[i] + np.pi
+            seed[i] = centre[i] + (seed[i] - centre[i] + np.pi) % (2 * np.pi) - np.pi
+        return lower, upper, np.clip(seed, lower, upper)
 
     def _attempt(self, solver_name: str, X_WG, seed, q_near, clear_of_shelf: bool):
         """One solve; the arm angles or None."""
@@ -248,18 +253,21 @@ class PoseIk:
         return result.GetSolution(arm) if result.is_success() else None
 
     def solve(self, X_WG: RigidTransform, seeds: list[np.ndarray],
-              q_near: np.ndarray | None = None) -> IkResult:
+              q_near: np.ndarray | None = None, clear_of_shelf: bool = True) -> IkResult:
         """Arm angles putting G at ``X_WG`` (see the class docstring); never raises on failure.
 
         Per seed, the first solver finds a kinematic solution (no distance constraint, cheap),
         then the full problem is solved from it; if every seed fails, the fallback solver
         (IPOPT when SNOPT is first) gets one try at the full problem from the first seed.
+        ``clear_of_shelf=False`` returns the first kinematic solution (shelf ignored).
         """
         start = time.perf_counter()
         first = self.solvers[0][0]
         reached = 0
         for seed in seeds:
             q_kin = self._attempt(first, X_WG, seed, q_near, clear_of_shelf=False)
+            if q_kin is not None and not clear_of_shelf:
+                return IkResult(q_kin, first, time.perf_counter() - start)
             if q_kin is None:
                 continue
             reached += 1
@@ -267,7 +275,7 @@ class PoseIk:
             if q is not None:
                 return IkResult(q, first, time.perf_counter() - start)
         for name, _ in self.solvers[1:]:
-            q = self._attempt(name, X_WG, seeds[0], q_near, clear_of_shelf=True)
+            q = self._attempt(name, X_WG, seeds[0], q_near, clear_of_shelf)
             if q is not None:
                 return IkResult(q, name, time.perf_counter() - start)
         why = (f"pose reached from {reached} of {len(seeds)} seeds but never "

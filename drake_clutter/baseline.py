@@ -42,6 +42,7 @@ from drake_clutter import robot_model
 from drake_clutter.approach import (
     ARM_DOF,
     CONTINUOUS_JOINTS,
+    GripperExtent,
     PoseIk,
     approach_angles,
     approach_poses,
@@ -237,6 +238,9 @@ class PathOptimiser:
         self.plant_context = world.plant.CreateDefaultContext()
         limits = np.array(list(robot_model.arm_joint_limits().values()))
         self.lower, self.upper = limits[:, 0], limits[:, 1]
+        speeds = robot_model.velocity_limits()
+        self.max_step = (config.velocity_limit_scale * config.knot_time
+                         * np.array([speeds[name] for name in robot_model.ARM_JOINTS]))
 
     def _terminal_constraints(self, X_WG: RigidTransform):
         plant, tol = self.world.plant, self.config.ik_position_tolerance
@@ -257,7 +261,7 @@ class PathOptimiser:
             upper[j] = q_init[:, j].max() + np.pi
         return lower, upper
 
-    def build(self, q_init: np.ndarray, X_WG: RigidTransform):
+    def build(self, q_init: np.ndarray, X_WG: RigidTransform, substeps: int):
         """The MathematicalProgram, its control-point variables (K-1, 7) and a counter.
 
         The path's knots are samples of a clamped uniform B-spline (`spline_basis`) whose
@@ -280,6 +284,7 @@ class PathOptimiser:
         lower, upper = self._bounds(q_init)
         prog.AddBoundingBoxConstraint(np.tile(lower, len(guess)), np.tile(upper, len(guess)),
                                       points.ravel())
+        self._add_velocity_limits(prog, points, basis, q_first)
         if self.config.fix_last_knot:
             prog.AddBoundingBoxConstraint(q_init[-1], q_init[-1], points[-1])
             guess[-1] = q_init[-1]
@@ -296,7 +301,7 @@ class PathOptimiser:
         def cost(z):
             counter["evaluations"] += 1
             autodiff = z.dtype == object
-            value, grad = self.path_cost(path(ExtractValue(z) if autodiff else z))
+            value, grad = self.path_cost(path(ExtractValue(z) if autodiff else z), substeps)
             if not autodiff:
                 return value
             return AutoDiffXd(value, path.pullback(grad) @ ExtractGradient(z))
@@ -305,10 +310,20 @@ class PathOptimiser:
         prog.SetInitialGuess(points, guess)
         return prog, points, path, counter
 
-    def path_cost(self, q: np.ndarray) -> tuple[float, np.ndarray]:
-        """w_static_hull * sum c_static_hull + w_vel * sum c_vel of a path (T, 7), gradient."""
+    def _add_velocity_limits(self, prog, points, basis: np.ndarray, q_first) -> None:
+        """|q_t - q_(t-1)| <= velocity_limit_scale * (PR2 joint speed limit) * knot_time, per
+        joint: linear in the control points."""
+        steps = np.diff(basis, axis=0)  # (T-1, K): knot steps = steps @ control points
+        bound = np.tile(self.max_step, len(steps))
+        offset = np.kron(steps[:, :1], np.eye(ARM_DOF)) @ q_first
+        prog.AddLinearConstraint(np.kron(steps[:, 1:], np.eye(ARM_DOF)), -bound - offset,
+                                 bound - offset, points.ravel())
+
+    def path_cost(self, q: np.ndarray, substeps: int) -> tuple[float, np.ndarray]:
+        """w_static_hull * sum c_static_hull + w_vel * sum c_vel of a path (T, 7) with
+        ``substeps`` samples per knot interval, and its gradient (T, 7)."""
         config = self.config
-        hull, grad_hull = static_hull_cost(self.clearance, q, config.d_safe, config.opt_substeps)
+        hull, grad_hull = static_hull_cost(self.clearance, q, config.d_safe, substeps)
         step = np.diff(q, axis=0)
         grad_vel = np.zeros_like(q)
         grad_vel[1:] += 2.0 * step
@@ -316,22 +331,25 @@ class PathOptimiser:
         value = config.w_static_hull * hull + config.w_vel * float(np.sum(step**2))
         return value, config.w_static_hull * grad_hull + config.w_vel * grad_vel
 
-    def optimise(self, q_init: np.ndarray, X_WG: RigidTransform) -> OptResult:
-        """Optimises ``q_init`` (T, 7), knot 1 fixed; SNOPT first, IPOPT if SNOPT's answer
-        breaks the terminal constraints. Solver failures come back as ``feasible=False``."""
+    def optimise(self, q_init: np.ndarray, X_WG: RigidTransform,
+                 substeps: int | None = None) -> OptResult:
+        """Optimises ``q_init`` (T, 7), knot 1 fixed, with ``substeps`` samples per interval in
+        c_static_hull (default ``opt_substeps``); SNOPT first, IPOPT if SNOPT's answer breaks
+        the terminal constraints. Solver failures come back as ``feasible=False``."""
+        substeps = substeps or self.config.opt_substeps
         result = None
         for name, solver in (("snopt", SnoptSolver()), ("ipopt", IpoptSolver())):
             if not (solver.available() and solver.enabled()):
                 continue
-            result = self._solve_with(name, solver, q_init, X_WG)
+            result = self._solve_with(name, solver, q_init, X_WG, substeps)
             if result.feasible:
                 return result
         if result is None:
             raise RuntimeError("neither SNOPT nor IPOPT is available in this drake build")
         return result
 
-    def _solve_with(self, name, solver, q_init, X_WG) -> OptResult:
-        prog, points, path, counter = self.build(q_init, X_WG)
+    def _solve_with(self, name, solver, q_init, X_WG, substeps) -> OptResult:
+        prog, points, path, counter = self.build(q_init, X_WG, substeps)
         try:
             with quiet_drake_warnings():
                 result = solver.Solve(prog, None, self._options(name))
@@ -376,19 +394,21 @@ class PathOptimiser:
 
 @dataclass
 class CheckResult:
-    """Dense check of a path: passed, the deepest penetration (m), the pair, when (s), and how
-    many configurations were checked."""
+    """Dense check of a path: passed, the deepest penetration (m), the pair, when (s), how
+    many configurations were checked, and how long the check took (s)."""
 
     passed: bool
     depth: float
     where: str
     time: float
     samples: int
+    seconds: float = 0.0
 
 
 def dense_check(clearance: ShelfClearance, q: np.ndarray, config: BaselineConfig) -> CheckResult:
     """Checks ``check_substeps`` configurations per knot interval (and the first knot) of path
     ``q`` (T, 7): passes when no arm proxy penetrates the shelf by more than check_tolerance."""
+    tic = time.perf_counter()
     intervals, fractions = segment_samples(len(q), config.check_substeps)
     samples = [(0, 0.0)] + list(zip(intervals, fractions, strict=True))
     depth, where, when = 0.0, "", 0.0
@@ -396,7 +416,8 @@ def dense_check(clearance: ShelfClearance, q: np.ndarray, config: BaselineConfig
         d, name = clearance.deepest((1.0 - lam) * q[i] + lam * q[i + 1] if lam else q[i])
         if d > depth:
             depth, where, when = d, name, (i + lam) * config.knot_time
-    return CheckResult(depth <= config.check_tolerance, depth, where, when, len(samples))
+    return CheckResult(depth <= config.check_tolerance, depth, where, when, len(samples),
+                       time.perf_counter() - tic)
 
 
 # ----------------------------------------------------------------------------- the planner
@@ -412,13 +433,58 @@ class _Context:
     ik: PoseIk
     clearance: ShelfClearance
     optimiser: PathOptimiser
-    extent: object
+    extent: GripperExtent
     previous: list = field(default_factory=list)
 
 
 def _trajectory(q_arm: np.ndarray, knot_time: float) -> Trajectory:
     q = np.column_stack([q_arm, np.full(len(q_arm), OPENING)])
     return Trajectory(np.arange(len(q_arm)) * knot_time, q)
+
+
+def _end_configurations(ctx: _Context, poses, index: int, timings: dict):
+    """IK of the pre-grasp and start poses: (q_start, q_end, solvers) or a failure reason."""
+    config = ctx.config
+    end = ctx.ik.solve(poses.X_WPregrasp, ik_seeds(config, ctx.previous[-1:], index))
+    timings["ik"] = end.seconds
+    if end.q is None:
+        return f"pre-grasp pose: {end.reason}"
+    ctx.previous.append(end.q)
+    start = ctx.ik.solve(poses.X_WStart, ik_seeds(config, [end.q], index), q_near=end.q)
+    timings["ik"] += start.seconds
+    if start.q is None:
+        return f"start pose: {start.reason}"
+    # The start was pulled towards the pre-grasp solution; pull a pre-grasp solution back
+    # towards the start too and keep it if the pair is closer (the same IK branch).
+    closer = ctx.ik.solve(poses.X_WPregrasp, [start.q, end.q], q_near=start.q)
+    timings["ik"] += closer.seconds
+    if closer.q is not None and (np.linalg.norm(closer.q - start.q)
+                                 < np.linalg.norm(end.q - start.q)):
+        end = closer
+    return start.q, end.q, [start.solver, end.solver]
+
+
+def _optimise_and_check(ctx: _Context, q_init, X_WG, timings: dict, details: dict):
+    """The optimisation, then the dense check; when the check finds penetration, one more
+    optimisation from that result with ``opt_refine_substeps`` samples per interval (the
+    motion between the first pass's samples can exceed d_safe where the arm swings fast).
+    Returns (OptResult, CheckResult or None when the optimisation failed)."""
+    config = ctx.config
+    tic = time.perf_counter()
+    opt = ctx.optimiser.optimise(q_init, X_WG)
+    check = dense_check(ctx.clearance, opt.q, config) if opt.feasible else None
+    checking = check.seconds if check else 0.0
+    details["opt_passes"] = 1
+    if check is not None and not check.passed and config.opt_refine_substeps > 0:
+        second = ctx.optimiser.optimise(opt.q, X_WG, config.opt_refine_substeps)
+        details["opt_passes"] = 2
+        if second.feasible:
+            opt, check = second, dense_check(ctx.clearance, second.q, config)
+            checking += check.seconds
+    timings["optimisation"] = time.perf_counter() - tic - checking
+    if check is not None:
+        timings["check"] = checking
+    return opt, check
 
 
 def plan_angle(ctx: _Context, alpha: float, index: int) -> Candidate:
@@ -428,38 +494,19 @@ def plan_angle(ctx: _Context, alpha: float, index: int) -> Candidate:
     details = {"height": poses.height,
                "start_xyz": poses.X_WStart.translation().tolist(),
                "pregrasp_xyz": poses.X_WPregrasp.translation().tolist()}
-    end = ctx.ik.solve(poses.X_WPregrasp, ik_seeds(config, ctx.previous[-1:], index))
-    timings = {"ik": end.seconds}
-    if end.q is None:
-        return Candidate(alpha, "ik_failed", f"pre-grasp pose: {end.reason}", None,
-                         timings=timings, details=details)
-    ctx.previous.append(end.q)
-    start = ctx.ik.solve(poses.X_WStart, ik_seeds(config, [end.q], index), q_near=end.q)
-    timings["ik"] += start.seconds
-    if start.q is None:
-        return Candidate(alpha, "ik_failed", f"start pose: {start.reason}", None,
-                         timings=timings, details=details)
-    # The start was pulled towards the pre-grasp solution; pull a pre-grasp solution back
-    # towards the start too and keep it if the pair is closer (the same IK branch).
-    closer = ctx.ik.solve(poses.X_WPregrasp, [start.q, end.q], q_near=start.q)
-    timings["ik"] += closer.seconds
-    if closer.q is not None and (np.linalg.norm(closer.q - start.q)
-                                 < np.linalg.norm(end.q - start.q)):
-        end = closer
-    details["ik_solvers"] = [end.solver, start.solver]
-    q_init = interpolate(start.q, end.q, config.num_knots)
-    tic = time.perf_counter()
-    opt = ctx.optimiser.optimise(q_init, poses.X_WPregrasp)
-    timings["optimisation"] = time.perf_counter() - tic
+    timings: dict[str, float] = {}
+    ends = _end_configurations(ctx, poses, index, timings)
+    if isinstance(ends, str):
+        return Candidate(alpha, "ik_failed", ends, None, timings=timings, details=details)
+    q_start, q_end, details["ik_solvers"] = ends
+    q_init = interpolate(q_start, q_end, config.num_knots)
+    opt, check = _optimise_and_check(ctx, q_init, poses.X_WPregrasp, timings, details)
     details.update(_opt_details(ctx, q_init, opt, poses.X_WPregrasp))
     trajectory = _trajectory(opt.q, config.knot_time)
-    if not opt.feasible:
+    if check is None:
         return Candidate(alpha, "optimisation_failed",
                          f"{opt.solver}: {opt.solver_status}, terminal pose not kept",
                          trajectory, timings=timings, details=details)
-    tic = time.perf_counter()
-    check = dense_check(ctx.clearance, opt.q, config)
-    timings["check"] = time.perf_counter() - tic
     details.update({"max_penetration": check.depth, "check_samples": check.samples})
     if not check.passed:
         return Candidate(alpha, "collision_check_failed",
@@ -470,6 +517,8 @@ def plan_angle(ctx: _Context, alpha: float, index: int) -> Candidate:
 
 
 def _opt_details(ctx: _Context, q_init, opt: OptResult, X_WG) -> dict:
+    """What the optimisation did: solver, status, evaluations, unweighted costs before/after
+    (c_static_hull at opt_substeps), and the last knot's pose error (m, rad)."""
     config = ctx.config
     hull0 = static_hull_cost(ctx.clearance, q_init, config.d_safe, config.opt_substeps)[0]
     hull = static_hull_cost(ctx.clearance, opt.q, config.d_safe, config.opt_substeps)[0]
@@ -507,10 +556,12 @@ _CHECKS = (  # (field, test, what it must be) for check_config
      f"a list of {ARM_DOF}-angle postures"),
     ("ik_random_seeds", lambda c: c.ik_random_seeds >= 0, "non-negative"),
     ("opt_substeps", lambda c: c.opt_substeps >= 1, "at least 1"),
+    ("opt_refine_substeps", lambda c: c.opt_refine_substeps >= 0, "non-negative"),
     ("opt_spline_order", lambda c: c.opt_spline_order >= 2, "at least 2"),
     ("opt_control_points", lambda c: c.opt_spline_order <= c.opt_control_points
      <= c.num_knots, "between opt_spline_order and num_knots"),
     ("opt_max_iterations", lambda c: c.opt_max_iterations >= 1, "at least 1"),
+    ("velocity_limit_scale", lambda c: c.velocity_limit_scale > 0, "positive"),
 )
 
 

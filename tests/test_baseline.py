@@ -26,7 +26,8 @@ from drake_clutter.approach import (
 )
 from drake_clutter.config import BaselineConfig, ConfigError
 from drake_clutter.generators import generate_scene
-from drake_clutter.scenes import BoxObject
+from drake_clutter.robot_model import velocity_limits
+from drake_clutter.scenes import BoxObject, load_shipped_scene, shipped_scene_names
 from drake_clutter.trajectory import TRAJECTORY_JOINTS, load_plan
 from drake_clutter.world import build_planning_world
 
@@ -188,11 +189,9 @@ def _near_board_configuration(scene, world):
     poses = approach_poses(scene, 0.6, CONFIG, gripper_extent(world))
     X = RigidTransform(poses.X_WPregrasp)
     X.set_translation(X.translation() - [0.0, 0.0, poses.height - 0.035])
-    for seed in CONFIG.ik_nominal_postures:
-        q = ik._attempt("snopt", X, np.array(seed), None, clear_of_shelf=False)
-        if q is not None:
-            return q
-    raise AssertionError("no kinematic solution for the test configuration")
+    result = ik.solve(X, ik_seeds(CONFIG, [], 0), clear_of_shelf=False)
+    assert result.q is not None, "no kinematic solution for the test configuration"
+    return result.q
 
 
 def test_penetration_gradient_matches_finite_differences(bookshelf, world, clearance):
@@ -212,8 +211,8 @@ def test_path_cost_gradient_matches_finite_differences(bookshelf, world, clearan
     q_start = q_end + np.array([0.3, -0.2, 0.1, 0.2, 0.0, 0.1, 0.0])
     q = bl.interpolate(q_start, q_end, 8)
     optimiser = bl.PathOptimiser(world, clearance, CONFIG)
-    value, grad = optimiser.path_cost(q)
-    hull = bl.static_hull_cost(clearance, q, CONFIG.d_safe, CONFIG.opt_substeps)[0]
+    value, grad = optimiser.path_cost(q, 2)
+    hull = bl.static_hull_cost(clearance, q, CONFIG.d_safe, 2)[0]
     assert hull > 0
     assert value == pytest.approx(CONFIG.w_static_hull * hull + CONFIG.w_vel
                                   * bl.velocity_cost(q))
@@ -221,8 +220,8 @@ def test_path_cost_gradient_matches_finite_differences(bookshelf, world, clearan
     rng = np.random.default_rng(0)
     for _ in range(6):  # directional derivatives along random directions
         direction = rng.normal(size=q.shape)
-        numeric = (optimiser.path_cost(q + eps * direction)[0]
-                   - optimiser.path_cost(q - eps * direction)[0]) / (2 * eps)
+        numeric = (optimiser.path_cost(q + eps * direction, 2)[0]
+                   - optimiser.path_cost(q - eps * direction, 2)[0]) / (2 * eps)
         assert np.sum(grad * direction) == pytest.approx(numeric, rel=1e-3, abs=1e-8)
 
 
@@ -313,6 +312,9 @@ def test_candidates_carry_a_complete_trajectory(bookshelf, bookshelf_plan):
         assert np.linalg.norm(check.tool_pose(traj.q[0]).translation()
                               - start.translation()) < 1e-3
         assert {"ik", "optimisation", "check"} <= set(c.timings)
+        speed = np.abs(np.diff(traj.q[:, :7], axis=0)) / CONFIG.knot_time
+        limits = [velocity_limits()[name] for name in TRAJECTORY_JOINTS[:7]]
+        assert np.all(speed <= np.array(limits) * CONFIG.velocity_limit_scale + 1e-6)
 
 
 def test_the_optimisation_repairs_a_penetrating_straight_line(bookshelf_plan):
@@ -417,3 +419,20 @@ def test_plan_command_bad_input_is_one_line_exit_2(args, needle):
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and needle in lines[0], result.stderr
     assert "Traceback" not in result.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", shipped_scene_names())
+def test_shipped_scenes_ok_candidates_are_clear_and_end_at_the_pregrasp(name):
+    scene = load_shipped_scene(name)
+    candidates = bl.plan_baseline(scene, CONFIG)
+    assert len(candidates) == CONFIG.num_angles and any(c.ok for c in candidates)
+    check = ShelfDistances(scene)
+    for c in candidates:
+        if not c.ok:
+            continue
+        p_pre, x_axis = _expected_pregrasp(scene, c.alpha, CONFIG)
+        X = check.tool_pose(c.trajectory.q[-1])
+        assert np.linalg.norm(X.translation() - p_pre) < 1e-3
+        assert np.arccos(np.clip(X.rotation().matrix()[:, 0] @ x_axis, -1, 1)) < 0.01
+        assert check.deepest_along(c.trajectory) <= CONFIG.check_tolerance, (name, c.alpha)

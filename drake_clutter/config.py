@@ -132,11 +132,15 @@ class BaselineConfig:
     ik_seed: int = 0  # random seed of those (plus the angle's index)
     # Path optimisation (ours; Sec. IV uses SQP [30]).
     opt_substeps: int = 2  # configurations per knot interval in c_static_hull
+    opt_refine_substeps: int = 10  # per interval in a second pass run when the dense check
+    # fails (fast swings move the arm more than d_safe between 2 samples); 0 = no second pass
     opt_control_points: int = 10  # B-spline control points whose samples are the knots
     opt_spline_order: int = 4  # B-spline order (4 = cubic)
     fix_last_knot: bool = False  # True: last knot = the pre-grasp IK solution; False: free
     # under tool-frame pose constraints (Sec. IV's formulation)
     opt_max_iterations: int = 100  # SNOPT major / IPOPT iterations
+    velocity_limit_scale: float = 1.0  # knots move each joint at most this x its PR2 speed
+    # limit x knot_time (ours: keeps the path executable and swings visible to the samples)
     opt_optimality_tolerance: float = 1e-3  # SNOPT major optimality / IPOPT tol
     # The optimised last knot keeps the pre-grasp pose when within these (5x the IK
     # tolerances: room for the solvers' feasibility slack, well inside 1 mm and 0.01 rad).

@@ -8,9 +8,10 @@ Brute force perturbs every column of [x, u] (ndx + nu + 1 phi evaluations per kn
    within ``interaction_margin`` of each other at the start of some sub-step; bodies in
    different connected components cannot affect each other within the knot.
 2. Known blocks. The arm is kinematic, so its rows are exact (0 in A, I in B); when the arm
-   touches nothing its columns move nothing else, so they cost no evaluation. A box that
-   touches nothing moving and has the same state (within ``known_block_tolerance``) as at an
-   earlier knot reuses that knot's Jacobian block (a resting box: most boxes at most knots).
+   touches nothing its columns move nothing else, so they cost no evaluation. Boxes the arm
+   does not reach (a component of boxes only) whose states are all the same (within
+   ``known_block_tolerance``) as at an earlier knot reuse that knot's Jacobian block: resting
+   boxes, alone or leaning on each other, most boxes at most knots.
 3. Colouring. The columns still needed are grouped so that each group perturbs at most one
    column per component (Curtis-Powell-Reid: no row sees two perturbed columns); one phi
    evaluation per group, so a knot costs as many evaluations as its largest component has
@@ -194,7 +195,7 @@ class LinearizeStats:
     knots: int = 0
     differentiated_knots: int = 0
     evaluations: list[int] = field(default_factory=list)  # phi evaluations per knot
-    known_boxes: int = 0  # isolated-box blocks reused from earlier knots
+    known_boxes: int = 0  # boxes-only component blocks reused from earlier knots
     traced: int = 0  # knots whose nominal step had to be traced again
     failed_evaluations: int = 0
     seconds: float = 0.0
@@ -213,8 +214,8 @@ class _KnotWork:
     x_next: np.ndarray
     fd_components: list[list[int]]
     groups: list[list[int]]
-    known: dict[int, np.ndarray]  # box index -> 12x12 block reused from an earlier call
-    copies: dict[int, int] = field(default_factory=dict)  # box index -> earlier knot t whose
+    known: dict[tuple, np.ndarray]  # boxes-only component -> block from an earlier call
+    copies: dict[tuple, int] = field(default_factory=dict)  # component -> earlier knot t whose
     # block (differentiated in this call) it reuses
 
 
@@ -234,7 +235,8 @@ class PhiDynamics:
         self._own_pool = pool is None and self.config.workers > 0
         self.pool = WorkerPool(self.config.workers) if self._own_pool else pool
         self._steps: OrderedDict = OrderedDict()
-        self._known: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._known: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # boxes-only component
+        # -> (its box states, its Jacobian block) from an earlier knot or call
         self.stats = LinearizeStats()
 
     # -- dynamics
@@ -290,15 +292,14 @@ class PhiDynamics:
         knots = differentiated_knots(T, self.config.derivative_stride)
         self.stats = LinearizeStats(knots=T, differentiated_knots=len(knots))
         self._trace_missing(xs, us, knots)
-        pending: dict[int, list[tuple[np.ndarray, int]]] = {}
+        pending: dict[tuple, list[tuple[np.ndarray, int]]] = {}
         work = [self._plan(t, xs[t], us[t], pending) for t in knots]
         results = self._evaluate(work)
         A = np.zeros((T, self.layout.ndx, self.layout.ndx))
         B = np.zeros((T, self.layout.ndx, NU))
         for w, D in zip(work, results, strict=True):  # in knot order: copies come from earlier
-            for box, source in w.copies.items():
-                w.known[box] = A[source][self.layout.tangent_box_slice(box),
-                                         self.layout.tangent_box_slice(box)]
+            for comp, source in w.copies.items():
+                w.known[comp] = A[source][np.ix_(*[self._rows(comp)] * 2)]
             self._assemble(w, D, A[w.t], B[w.t])
             self.stats.evaluations.append(1 + len(w.groups) * self._evals_per_group())
         interpolate_between(A, B, knots)
@@ -321,29 +322,35 @@ class PhiDynamics:
         for t, result in zip(missing, results, strict=True):
             self._remember(self._key(xs[t], us[t]), result)
 
+    def _rows(self, comp) -> np.ndarray:
+        return np.concatenate([node_rows(self.layout, n) for n in comp])
+
     def _plan(self, t: int, x, u, pending: dict) -> _KnotWork:
         """What knot t needs: components to difference, colour groups, reusable blocks.
-        ``pending`` (box -> [(state, knot)]) collects isolated boxes differenced in this call,
-        so that later knots where the box is in the same state copy their block."""
+
+        A component of boxes only (the arm touches none of them) whose states all lie within
+        ``known_block_tolerance`` of an earlier knot's reuses that knot's block: from an
+        earlier call (``known``) or from a knot differenced in this call (``copies``, found in
+        ``pending``: component -> [(states, knot)])."""
         x_next, edges = self._steps[self._key(x, u)]
         fd, known, copies = [], {}, {}
         tolerance = self.config.known_block_tolerance
         for comp in components(self.layout.num_boxes + 1, edges):
             if comp == [ARM_NODE]:
                 continue  # kinematic arm touching nothing: its block is exact
-            if len(comp) == 1:
-                box = comp[0] - 1
-                state = self.layout.boxes(x)[box]
-                hit = self._known.get(box)
-                if hit is not None and _close(hit[0], state, tolerance):
-                    known[box] = hit[1]
+            if ARM_NODE not in comp:
+                key = tuple(comp)
+                states = self.layout.boxes(x)[[n - 1 for n in comp]]
+                hit = self._known.get(key)
+                if hit is not None and _close(hit[0], states, tolerance):
+                    known[key] = hit[1]
                     continue
-                source = next((k for s, k in pending.get(box, ()) if _close(s, state, tolerance)),
+                source = next((k for s, k in pending.get(key, ()) if _close(s, states, tolerance)),
                               None)
                 if source is not None:
-                    copies[box] = source
+                    copies[key] = source
                     continue
-                pending.setdefault(box, []).append((state, t))
+                pending.setdefault(key, []).append((states, t))
             fd.append(comp)
         columns = [sum((node_columns(self.layout, n) for n in comp), []) for comp in fd]
         self.stats.known_boxes += len(known) + len(copies)
@@ -377,15 +384,14 @@ class PhiDynamics:
             rows = np.concatenate([node_rows(layout, n) for n in comp])
             for g, col in enumerate(sum((node_columns(layout, n) for n in comp), [])):
                 J[rows, col] = D[g, rows]
-        for box, block in w.known.items():
-            s = layout.tangent_box_slice(box)
-            J[s, s] = block
+        for comp, block in w.known.items():
+            J[np.ix_(*[self._rows(comp)] * 2)] = block
         for comp in w.fd_components:
-            if len(comp) == 1 and comp[0] != ARM_NODE:
-                s = layout.tangent_box_slice(comp[0] - 1)
-                if np.all(np.isfinite(J[s, s])):
-                    self._known[comp[0] - 1] = (layout.boxes(w.x)[comp[0] - 1].copy(),
-                                                J[s, s].copy())
+            if ARM_NODE not in comp:
+                block = J[np.ix_(*[self._rows(comp)] * 2)]
+                if np.all(np.isfinite(block)):
+                    states = layout.boxes(w.x)[[n - 1 for n in comp]].copy()
+                    self._known[tuple(comp)] = (states, block.copy())
         J[:ARM_DIM] = 0.0  # the kinematic arm: x_arm' = u exactly
         J[:ARM_DIM, ndx:] = np.eye(NU)
         A[:] = J[:, :ndx]

@@ -78,6 +78,18 @@ def test_tangent_maps_match_retract_to_first_order():
     np.testing.assert_allclose(P @ q_dir, 0.0, atol=1e-12)
 
 
+def test_layout_maps_carry_nan_instead_of_raising():
+    layout = StateLayout(("a", "b"))
+    x = _random_state(layout, np.random.default_rng(2))
+    bad = x.copy()
+    bad[ARM_DIM:ARM_DIM + 4] = np.nan  # a failed step's box a
+    d = layout.difference(bad, x)
+    assert np.all(np.isnan(d[ARM_DIM:ARM_DIM + 3]))
+    assert np.all(np.isfinite(d[ARM_DIM + 12:]))  # box b is unaffected
+    assert np.all(np.isnan(layout.retract(bad, np.zeros(layout.ndx))[ARM_DIM:ARM_DIM + 4]))
+    assert np.all(np.isnan(layout.retract(x, np.full(layout.ndx, np.nan))[ARM_DIM:]))
+
+
 def test_pose_state_round_trip(scene10):
     spec = make_spec(scene10, [b.name for b in scene10.boxes[:3]])
     x = initial_state(spec.layout, np.zeros(8), scene_box_states(scene10))

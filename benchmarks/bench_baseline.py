@@ -25,7 +25,8 @@ import time
 import numpy as np
 
 from drake_clutter.approach import static_planning_world
-from drake_clutter.baseline import ShelfClearance, plan_baseline
+from drake_clutter.baseline import plan_baseline
+from drake_clutter.clearance import ShelfClearance
 from drake_clutter.config import BaselineConfig, Config, WorldConfig, load_config
 from drake_clutter.generators import generate_scene, scene_set
 

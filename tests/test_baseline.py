@@ -1,5 +1,5 @@
-"""The baseline planner (Sec. IV): approach poses, IK, the static-hull cost, the optimisation,
-the dense check, plan_baseline on real scenes, and the `plan` command."""
+"""The baseline planner (Sec. IV): approach poses, IK, the static-hull cost and the dense check
+(`clearance`), the optimisation, plan_baseline on real scenes, and the `plan` command."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from pydrake.geometry import Role
 from pydrake.math import RigidTransform
 
 from drake_clutter import baseline as bl
+from drake_clutter import clearance as cl
 from drake_clutter.approach import (
     PoseIk,
     approach_angles,
@@ -60,7 +61,7 @@ def world(bookshelf):
 
 @pytest.fixture(scope="module")
 def clearance(world):
-    return bl.ShelfClearance(world)
+    return cl.ShelfClearance(world)
 
 
 # ----------------------------------------------------------------------------- independent checks
@@ -194,6 +195,20 @@ def _near_board_configuration(scene, world):
     return result.q
 
 
+def test_smooth_penetration_is_table_i_penetration_made_c1():
+    d_safe = CONFIG.d_safe
+    assert cl.smooth_penetration(0.0, d_safe) == (0.0, 0.0)  # d_safe apart: nothing
+    for gap in (0.5 * d_safe, d_safe, 1.7 * d_safe):  # slope = finite difference
+        eps = 1e-7
+        numeric = (cl.smooth_penetration(gap + eps, d_safe)[0]
+                   - cl.smooth_penetration(gap - eps, d_safe)[0]) / (2 * eps)
+        assert cl.smooth_penetration(gap, d_safe)[1] == pytest.approx(numeric, rel=1e-5)
+    # once touching, it grows one for one with the depth, as Table I's penetration
+    deeper = cl.smooth_penetration(d_safe + 0.01, d_safe)[0] - cl.smooth_penetration(d_safe,
+                                                                                     d_safe)[0]
+    assert deeper == pytest.approx(0.01)
+
+
 def test_penetration_gradient_matches_finite_differences(bookshelf, world, clearance):
     q = _near_board_configuration(bookshelf, world)
     value, grad = clearance.penetration(q, CONFIG.d_safe)
@@ -212,10 +227,10 @@ def test_path_cost_gradient_matches_finite_differences(bookshelf, world, clearan
     q = bl.interpolate(q_start, q_end, 8)
     optimiser = bl.PathOptimiser(world, clearance, CONFIG)
     value, grad = optimiser.path_cost(q, 2)
-    hull = bl.static_hull_cost(clearance, q, CONFIG.d_safe, 2)[0]
+    hull = cl.static_hull_cost(clearance, q, CONFIG.d_safe, 2)[0]
     assert hull > 0
     assert value == pytest.approx(CONFIG.w_static_hull * hull + CONFIG.w_vel
-                                  * bl.velocity_cost(q))
+                                  * cl.velocity_cost(q))
     eps = 1e-6
     rng = np.random.default_rng(0)
     for _ in range(6):  # directional derivatives along random directions
@@ -269,9 +284,9 @@ def test_dense_check_catches_a_crossing_between_knots(bookshelf, world, clearanc
     below = ik.solve(X_below, ik_seeds(CONFIG, [above.q], 0))
     assert above.q is not None and below.q is not None
     path = bl.interpolate(above.q, below.q, 2)
-    knots_only = bl.dense_check(clearance, path, dataclasses.replace(CONFIG, check_substeps=1))
+    knots_only = cl.dense_check(clearance, path, dataclasses.replace(CONFIG, check_substeps=1))
     assert knots_only.passed
-    dense = bl.dense_check(clearance, path, CONFIG)
+    dense = cl.dense_check(clearance, path, CONFIG)
     assert not dense.passed and dense.depth > 0.01 and "board" in dense.where
     assert dense.samples == CONFIG.check_substeps + 1
 

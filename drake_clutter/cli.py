@@ -137,12 +137,27 @@ def _cmd_plan(args) -> int:
         raise InputError("<command line>", "--out", f"no such directory for {args.out}")
     check_config(baseline, args.config or "<command line>")
     candidates = plan_baseline(scene, baseline)
+    if args.planner != "baseline":
+        candidates = _physics_candidates(scene, config, candidates, args.planner)
     save_plan(args.out, scene.name, candidates,
-              extra={"planner": args.planner, "config": {"baseline": to_data(baseline)}})
+              extra={"planner": args.planner, "config": {"baseline": to_data(baseline),
+                                                         "physics": to_data(config.physics)}})
     print(candidates_table(candidates))
     ok = sum(c.ok for c in candidates)
     print(f"{ok} of {len(candidates)} angles ok ({scene.name}, {args.planner}); wrote {args.out}")
     return 0
+
+
+def _physics_candidates(scene, config, baseline_candidates, planner: str) -> list:
+    """The physics planner (Sec. V) on the baseline's candidates: its list, or with planner
+    "both" the baseline's followed by its own; prints a per-candidate stage table."""
+    from drake_clutter.physics import check_config as check_physics
+    from drake_clutter.physics import plan_physics, stages_table
+
+    check_physics(config)
+    physics = plan_physics(scene, config, baseline_candidates)
+    print(stages_table(physics))
+    return physics if planner == "physics" else list(baseline_candidates) + physics
 
 
 def _cmd_config_show(args) -> int:
@@ -198,8 +213,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     plan = groups.add_parser("plan", help="plan approach trajectories for a scene (Sec. IV)")
     plan.add_argument("scene", help="a scene YAML file or a shipped scene name")
-    plan.add_argument("--planner", choices=("baseline",), default="baseline",
-                      help="the planner (default: baseline, Sec. IV)")
+    plan.add_argument("--planner", choices=("baseline", "physics", "both"), default="baseline",
+                      help="the planner (default: baseline, Sec. IV; physics: Sec. V from the "
+                      "baseline's candidates; both: the two lists)")
     plan.add_argument("--angles", type=int,
                       help="number of approach angles (default: baseline.num_angles)")
     plan.add_argument("--out", required=True, help="plan file (JSON) to write")

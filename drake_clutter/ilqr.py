@@ -14,6 +14,11 @@ the box, and the backward pass drops the feedback of controls that sit on a boun
 nominal trajectory (their gradient pushing outwards), so the linear policy does not fight the
 clamp - the simple form of the control-limited iLQR of Tassa et al. (2014).
 
+Manifold states: with ``difference(x_a, x_b) -> dx`` (x_a minus x_b in tangent coordinates,
+e.g. rotation vectors for quaternion states) the linearisation and the expansion live in the
+tangent space (A: ndx x ndx, B: ndx x nu, lx: ndx, ...), and the forward pass feeds back
+K (x (-) x_bar); without it the states are plain vectors and x - x_bar is used.
+
 Regularisation: Levenberg-Marquardt on Q_uu (``mu * I``), raised by ``reg_factor`` whenever
 Q_uu is not positive definite or the line search fails, lowered after every accepted step.
 Line search: step sizes 1, 1/2, 1/4, ...; a step is accepted only if it lowers the objective,
@@ -158,21 +163,32 @@ def _chol_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return np.linalg.solve(chol.T, y)
 
 
-def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi):
-    """New (xs, us) from the policy u = clamp(u_bar + alpha k + K (x - x_bar))."""
+def _subtract(x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
+    return x_a - x_b
+
+
+def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, difference=None):
+    """New (xs, us) from the policy u = clamp(u_bar + alpha k + K (x (-) x_bar)); ``difference``
+    is the state difference (default: plain subtraction)."""
+    difference = difference or _subtract
     new_xs = np.empty_like(xs)
     new_us = np.empty_like(us)
     new_xs[0] = xs[0]
     for t in range(len(us)):
-        u = us[t] + alpha * k[t] + K[t] @ (new_xs[t] - xs[t])
+        if not np.all(np.isfinite(new_xs[t])):  # the dynamics failed: the step is rejected
+            new_xs[t:] = np.nan
+            new_us[t:] = us[t:]
+            break
+        u = us[t] + alpha * k[t] + K[t] @ difference(new_xs[t], xs[t])
         new_us[t] = np.clip(u, lo, hi)
         new_xs[t + 1] = dynamics.step(t, new_xs[t], new_us[t])
     return new_xs, new_us
 
 
 def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
-          settings: ILQRSettings | None = None) -> ILQRResult:
-    """Runs iLQR from the control sequence ``us_init`` (clamped into the bounds)."""
+          settings: ILQRSettings | None = None, difference=None) -> ILQRResult:
+    """Runs iLQR from the control sequence ``us_init`` (clamped into the bounds);
+    ``difference`` as in the module docstring (None: plain vector states)."""
     settings = settings or ILQRSettings()
     us = np.array(us_init, dtype=float)
     lo, hi = _bounds(settings, us.shape[1])
@@ -186,7 +202,8 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     total = float(sum(terms.values()))
     history, term_history = [total], [terms]
     mu = settings.reg_init
-    K = np.zeros((len(us), us.shape[1], xs.shape[1]))
+    ndx = xs.shape[1] if difference is None else len(difference(xs[0], xs[0]))
+    K = np.zeros((len(us), us.shape[1], ndx))
     k = np.zeros_like(us)
     stop_reason = "max_iterations"
     iteration = 0
@@ -210,7 +227,8 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
             if -(d1 + d2) < settings.tolerance * max(abs(total), 1e-12):
                 break  # the model predicts no worthwhile decrease: a stationary point
             tic = time.perf_counter()
-            step = _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings)
+            step = _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings,
+                                difference)
             timings["forward"] += time.perf_counter() - tic
             if step is not None:
                 accepted = True
@@ -234,11 +252,11 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                       timings=timings)
 
 
-def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings):
+def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, difference=None):
     """First step size 1, 1/2, ... that lowers the objective: (xs, us, terms, total) or None."""
     alpha = 1.0
     for _ in range(settings.line_search_steps):
-        new_xs, new_us = forward_pass(dynamics, xs, us, k, K, alpha, lo, hi)
+        new_xs, new_us = forward_pass(dynamics, xs, us, k, K, alpha, lo, hi, difference)
         if np.all(np.isfinite(new_xs)):
             terms = cost.terms(new_xs, new_us)
             new_total = float(sum(terms.values()))

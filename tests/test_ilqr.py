@@ -156,3 +156,51 @@ def test_solver_imports_no_pydrake():
     code = "import sys, drake_clutter.ilqr; print('pydrake' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+class RotationDynamics:
+    """A heading stored as the unit vector (cos, sin) (2 numbers, 1 tangent direction), turned
+    by the control each step: a state on a manifold."""
+
+    def step(self, t, x, u):
+        a = np.arctan2(x[1], x[0]) + u[0]
+        return np.array([np.cos(a), np.sin(a)])
+
+    def linearize(self, xs, us):
+        T = len(us)
+        return np.ones((T, 1, 1)), np.ones((T, 1, 1))
+
+
+def _heading_difference(x_a, x_b):
+    return np.array([np.arctan2(x_b[0] * x_a[1] - x_b[1] * x_a[0], x_a @ x_b)])
+
+
+class HeadingCost:
+    """sum_t 1/2 u^2 + 1/2 w (heading_T - goal)^2, expanded in the tangent space."""
+
+    def __init__(self, goal, w):
+        self.goal, self.w = goal, w
+
+    def _error(self, x):
+        return _heading_difference(x, np.array([np.cos(self.goal), np.sin(self.goal)]))[0]
+
+    def terms(self, xs, us):
+        return {"control": 0.5 * float(np.sum(us**2)),
+                "terminal": 0.5 * self.w * self._error(xs[-1]) ** 2}
+
+    def quadratize(self, xs, us):
+        T = len(us)
+        return Expansion(lx=np.zeros((T, 1)), lu=us.copy(), lxx=np.zeros((T, 1, 1)),
+                         luu=np.ones((T, 1, 1)), lux=np.zeros((T, 1, 1)),
+                         vx=np.array([self.w * self._error(xs[-1])]), vxx=np.array([[self.w]]))
+
+
+def test_manifold_states_use_the_difference_function():
+    T, goal, w = 5, 2.0, 100.0
+    result = solve(RotationDynamics(), HeadingCost(goal, w), np.array([1.0, 0.0]),
+                   np.zeros((T, 1)), ILQRSettings(max_iterations=20, tolerance=1e-12),
+                   difference=_heading_difference)
+    assert result.K.shape == (T, 1, 1)
+    # Optimum of sum u^2/2 + w/2 (sum u - goal)^2: every u = w goal / (1 + w T).
+    np.testing.assert_allclose(result.us[:, 0], w * goal / (1 + w * T), atol=1e-6)
+    assert np.all(np.diff(result.cost_history) <= 0)

@@ -1,0 +1,100 @@
+#!/usr/bin/env python3
+"""Benchmark of the physics planner (Sec. V): seconds per initialization (one baseline
+candidate optimised) against the number of boxes, with the seconds of each stage (pre, sphere,
+full, post): the project's Fig. 9c.
+
+    python benchmarks/bench_planner.py                          # every Sec. VI-B level
+    python benchmarks/bench_planner.py --kind bookshelf --levels 1 25 --set physics.iterations=6
+
+Target (issue 6): at most 60 s per initialization at 25 boxes on the project's 2-core machine.
+Scenes are the first of each level of the 'paper' set; per scene the baseline plans
+``--angles`` angles and the first usable candidate is optimised. The reference measured in the
+same run is one phi step of the scene's first rollout (the kept boxes, ``dynamics.substeps``
+SAP steps): the 'init/step' column is the initialization's time in phi steps, a
+machine-independent measure of the planner's work. ``--set`` overrides any configuration field.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+
+import numpy as np
+
+from drake_clutter.baseline import plan_baseline
+from drake_clutter.config import load_config
+from drake_clutter.derivatives import WorkerPool
+from drake_clutter.dynamics import Phi, initial_state, scene_box_states
+from drake_clutter.generators import generate_scene, scene_set
+from drake_clutter.physics import optimise_candidate
+from drake_clutter.pruning import make_pruned_spec
+
+
+def phi_step_seconds(scene, candidate, config, repeats: int = 5) -> float:
+    """Mean seconds of one phi step along the candidate's first knots (the reference)."""
+    q = candidate.trajectory.q
+    spec, _ = make_pruned_spec(scene, q, None, config.baseline.knot_time, config.dynamics,
+                               config.world)
+    phi = Phi(spec)
+    x = initial_state(spec.layout, q[0], scene_box_states(scene))
+    tic = time.perf_counter()
+    for u in q[1:1 + repeats]:
+        x = phi.step(x, u)
+    return (time.perf_counter() - tic) / repeats
+
+
+def first_scene(kind: str, level: int, config):
+    spec = next(s for s in scene_set("paper", config.generator)
+                if s.kind == kind and s.num_objects == level)
+    return generate_scene(kind, level, spec.seed, config.generator)
+
+
+def bench(kind: str, level: int, config, angles: int, pool) -> str:
+    scene = first_scene(kind, level, config)
+    baseline = dataclasses.replace(config.baseline, num_angles=angles)
+    usable = [c for c in plan_baseline(scene, baseline) if c.ok]
+    if not usable:
+        return f"{kind:9} {level:5d}  no usable baseline candidate in {angles} angles"
+    candidate = usable[0]
+    reference = phi_step_seconds(scene, candidate, config)
+    tic = time.perf_counter()
+    plan = optimise_candidate(scene, candidate, config, pool)
+    total = time.perf_counter() - tic
+    t = plan.timings
+    kept = plan.details.get("stages", {}).get("full", {}).get("kept_boxes", [])
+    return (f"{kind:9} {level:5d} {len(kept):5d} {total:8.1f} {t.get('pre', 0):6.1f} "
+            f"{t.get('sphere', 0):7.1f} {t.get('full', 0):7.1f} {t.get('post', 0):6.1f} "
+            f"{reference * 1000:8.1f} {total / reference:9.0f}  {plan.status} {plan.reason}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--kind", choices=("bookshelf", "fridge", "both"), default="both")
+    parser.add_argument("--levels", type=int, nargs="*", help="box counts (default: all)")
+    parser.add_argument("--angles", type=int, default=3,
+                        help="baseline angles tried for a usable initialization (default 3)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[],
+                        metavar="KEY=VALUE")
+    args = parser.parse_args()
+    config = load_config(None, args.overrides)
+    kinds = ("bookshelf", "fridge") if args.kind == "both" else (args.kind,)
+    print(f"iterations {config.physics.iterations} (sphere {config.physics.sphere_iterations}),"
+          f" derivative_stride {config.dynamics.derivative_stride}, workers "
+          f"{config.dynamics.workers}")
+    print(f"{'kind':9} {'boxes':>5} {'kept':>5} {'init s':>8} {'pre s':>6} {'sphere s':>7} "
+          f"{'full s':>7} {'post s':>6} {'step ms':>8} {'init/step':>9}  status")
+    pool = WorkerPool(config.dynamics.workers) if config.dynamics.workers > 0 else None
+    try:
+        for kind in kinds:
+            env = getattr(config.generator, kind)
+            for level in args.levels or env.clutter_levels:
+                print(bench(kind, level, config, args.angles, pool), flush=True)
+    finally:
+        if pool is not None:
+            pool.close()
+
+
+if __name__ == "__main__":
+    np.set_printoptions(precision=3, suppress=True)
+    main()

@@ -1,0 +1,301 @@
+"""The physics-based planner of Sec. V: per baseline candidate, pre-processing, iLQR through phi,
+post-processing.
+
+Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `physics_costs`):
+
+1. ``pre`` (Sec. V-A): the kinematic arm alone, boxes held fixed where the scene puts them:
+   c_static_hull + c_dynamic + c_vel, with c_grasp to the candidate's pre-grasp point and
+   c_grp_horiz at the end instead of the baseline's terminal pose constraint. A kinematic iLQR
+   (state q^t, control q^(t+1), A = 0, B = I) is far cheaper than a SNOPT program here and
+   reuses the same cost code.
+2. ``sphere`` (Sec. V): ``sphere_iterations`` iLQR iterations through phi with the gripper as
+   one sphere (the ``sphere_gripper`` arm in phi and in the cost geometry). The sphere encloses
+   the open gripper, so at the pre-grasp it engulfs the target: in this stage the target is
+   taken out of phi (welded 10 m below the floor) and has no c_force; c_grasp aims at its
+   resting pose (ours: with the target in phi the sphere shoves it away and c_force, 5e8 on
+   fig5, drove the arm 40 cm off the target; welded in place, SAP failed on the first rollout);
+3. ``full``: the remaining ``iterations - sphere_iterations`` with the capsule arm;
+4. ``post`` (Sec. V-B): the kinematic arm again, c_static in the evaluation geometry + c_match
+   + c_match_vel to the physics plan.
+
+Each phi stage prunes the boxes against its initial path (`pruning.make_pruned_spec`), settles
+the kept boxes in phi under the arm at the start configuration (``dynamics.settle_time``) and
+runs iLQR in the tangent space of the augmented state z = [x, q^(t-1)] (`AugmentedPhi`;
+rotations as rotation vectors, `ilqr.solve`'s ``difference``). The start q^0 is fixed; the
+controls q^1..q^Delta are box-bounded by the PR2's joint limits and the gripper's [0, 0.09] m
+(clamped in the forward pass, the feedback of bound controls dropped: see `ilqr`).
+
+A failure (phi diverging on the initial rollout, a solver error) is a candidate with status
+``optimisation_failed`` and a reason, never an exception.
+
+The result is a `trajectory.Candidate` (planner "physics") whose ``details`` carry, per stage,
+the cost history per term, iterations and stop reason; ``timings`` the seconds per stage; and
+``details["feedback"]`` the last phi stage's gains K_t (8 x nz, tangent coordinates of z) and
+k_t with the kept boxes' names (the state layout they refer to).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from drake_clutter import ilqr, robot_model
+from drake_clutter.baseline import plan_baseline
+from drake_clutter.config import Config, ConfigError
+from drake_clutter.derivatives import PhiDynamics, WorkerPool
+from drake_clutter.dynamics import (
+    ARM_DIM,
+    StateLayout,
+    initial_state,
+    make_spec,
+    scene_box_states,
+)
+from drake_clutter.physics_costs import KinematicObjective, PhysicsObjective
+from drake_clutter.physics_geometry import ArmGeometry
+from drake_clutter.pruning import make_pruned_spec
+from drake_clutter.scenes import Scene
+from drake_clutter.trajectory import Candidate, Trajectory
+
+PARKED_TARGET = (0.0, 0.0, -10.0)  # m, where the sphere stage welds the target in phi (away
+# from everything: out of the simulation)
+
+
+ROLL_BOUND = 4 * np.pi  # rad, bound of the continuous rolls' controls; ours: two turns either
+# way is more than any reach needs, and a bound keeps a bad feedback gain from sending phi a
+# control of 1e200 rad (seen on the default scene)
+
+
+class PhiFailure(RuntimeError):
+    """phi could not simulate a stage's initial path."""
+
+
+class KinematicArm:
+    """The arm alone as iLQR dynamics: state q^t (8), control q^(t+1), x_{t+1} = u_t."""
+
+    def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The next configuration is the control."""
+        return np.array(u, dtype=float)
+
+    def linearize(self, xs: np.ndarray, us: np.ndarray):
+        """A = 0, B = I at every interval."""
+        T, n = len(us), xs.shape[1]
+        return np.zeros((T, n, n)), np.repeat(np.eye(n)[None], T, axis=0)
+
+
+class AugmentedPhi:
+    """phi with the previous arm configuration appended: z = [x, q^(t-1)], tangent dz =
+    [dx, dq^(t-1)]; ``linearize`` returns tangent Jacobians, ``difference`` the tangent
+    difference (both for `ilqr.solve`)."""
+
+    def __init__(self, dynamics: PhiDynamics):
+        self.dynamics, self.layout = dynamics, dynamics.layout
+        self.nx, self.ndx = self.layout.nx, self.layout.ndx
+
+    def step(self, t: int, z: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """[phi(x, u), q^t]; all NaN when phi's result is not a state (non-finite, or a
+        quaternion that lost its unit norm: SAP overflowing on a wild control)."""
+        x = self.dynamics.step(t, z[:self.nx], u)
+        quats = self.layout.boxes(x)[:, :4]
+        if not np.all(np.isfinite(x)) or np.any(np.abs(np.linalg.norm(quats, axis=1) - 1) > 1e-6):
+            return np.full(len(z), np.nan)
+        return np.concatenate([x, z[:ARM_DIM]])
+
+    def linearize(self, zs: np.ndarray, us: np.ndarray):
+        """A (T, nz, nz), B (T, nz, 8) in tangent coordinates."""
+        A_x, B_x = self.dynamics.linearize_tangent(zs[:, :self.nx], us)
+        T, nz = len(us), self.ndx + ARM_DIM
+        A, B = np.zeros((T, nz, nz)), np.zeros((T, nz, ARM_DIM))
+        A[:, :self.ndx, :self.ndx] = A_x
+        A[:, self.ndx:, :ARM_DIM] = np.eye(ARM_DIM)  # q_prev' = q^t (x's arm part)
+        B[:, :self.ndx] = B_x
+        return A, B
+
+    def difference(self, z_a: np.ndarray, z_b: np.ndarray) -> np.ndarray:
+        """z_a (-) z_b in tangent coordinates."""
+        return np.concatenate([self.layout.difference(z_a[:self.nx], z_b[:self.nx]),
+                               z_a[self.nx:] - z_b[self.nx:]])
+
+
+def control_bounds() -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(u_min, u_max): the arm's joint limits (rad; +-ROLL_BOUND for the continuous rolls) and
+    the gripper opening's [0, GRIPPER_MAX_OPENING] (m)."""
+    limits = [(max(lo, -ROLL_BOUND), min(hi, ROLL_BOUND))
+              for lo, hi in robot_model.arm_joint_limits().values()]
+    return (tuple(lo for lo, _ in limits) + (0.0,),
+            tuple(hi for _, hi in limits) + (robot_model.GRIPPER_MAX_OPENING,))
+
+
+def _settings(config: Config, iterations: int) -> ilqr.ILQRSettings:
+    lo, hi = control_bounds()
+    return ilqr.ILQRSettings(max_iterations=iterations, tolerance=config.physics.tolerance,
+                             u_min=lo, u_max=hi)
+
+
+def _stage_record(result: ilqr.ILQRResult, seconds: float, extra: dict | None = None) -> dict:
+    return {"iterations": result.iterations, "stop_reason": result.stop_reason,
+            "seconds": seconds, "cost_history": [float(c) for c in result.cost_history],
+            "term_history": [{k: float(v) for k, v in h.items()} for h in result.term_history],
+            "timings": dict(result.timings), **(extra or {})}
+
+
+def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
+               geometry: ArmGeometry | None = None) -> tuple[np.ndarray, ilqr.ILQRResult]:
+    """Sec. V-A on a knot path (T + 1, 8): the path with less box contact, and the solver's
+    result."""
+    geometry = geometry or ArmGeometry(scene, "capsules")
+    objective = KinematicObjective(
+        geometry, config.physics, "pre", config.baseline.d_safe, scene.target,
+        p_pregrasp=geometry.tool(q_init[-1])[0], w_static_hull=config.baseline.w_static_hull,
+        w_vel=config.baseline.w_vel)
+    result = ilqr.solve(KinematicArm(), objective, q_init[0], q_init[1:],
+                        _settings(config, config.physics.pre_iterations))
+    return result.xs, result
+
+
+def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
+                geometry: ArmGeometry | None = None) -> tuple[np.ndarray, ilqr.ILQRResult]:
+    """Sec. V-B on a knot path (T + 1, 8): c_static in the evaluation geometry, c_match and
+    c_match_vel to ``q_ref``."""
+    geometry = geometry or ArmGeometry(scene, config.physics.post_variant)
+    objective = KinematicObjective(geometry, config.physics, "post", config.baseline.d_safe,
+                                   scene.target, q_ref=q_ref)
+    result = ilqr.solve(KinematicArm(), objective, q_ref[0], q_ref[1:],
+                        _settings(config, config.physics.post_iterations))
+    return result.xs, result
+
+
+def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
+                  pool: WorkerPool | None = None, times: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
+    """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
+    default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
+    stage used (kept boxes, pruning, phi statistics)."""
+    knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+    spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
+                                    variant)
+    held = (scene.target,) if variant == "sphere_gripper" else ()
+    if held:  # the sphere encloses the open gripper, where the target belongs at the end
+        states = scene_box_states(scene)
+        states[scene.target] = states[scene.target].copy()
+        states[scene.target][4:7] = PARKED_TARGET
+        spec = make_spec(scene, [n for n in spec.dynamic_boxes if n not in held], states,
+                         knot_time, config.dynamics, config.world, variant)
+    layout: StateLayout = spec.layout
+    with PhiDynamics(spec, pool) as dynamics:
+        x0 = dynamics.phi.settle(initial_state(layout, q[0], scene_box_states(scene)))
+        if not np.all(np.isfinite(dynamics.rollout(x0, q[1:]))):
+            raise PhiFailure("phi failed on the initial rollout")
+        objective = PhysicsObjective(ArmGeometry(scene, variant), layout, config.physics, x0,
+                                     scene.target, knot_time, config.baseline.d_safe,
+                                     force_exclude=held)
+        augmented = AugmentedPhi(dynamics)
+        z0 = np.concatenate([x0, q[0]])
+        result = ilqr.solve(augmented, objective, z0, q[1:], _settings(config, iterations),
+                            difference=augmented.difference)
+        info = {"kept_boxes": list(layout.box_names), "pruning": report.summary(),
+                "phi_failures": dynamics.phi.failures}
+    return np.vstack([q[:1], result.us]), result, info
+
+
+def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> Candidate:
+    return Candidate(candidate.alpha, "optimisation_failed", reason, candidate.trajectory,
+                     planner="physics", timings=timings, details=details)
+
+
+def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
+                       pool: WorkerPool | None = None) -> Candidate:
+    """Sec. V on one baseline candidate (module docstring); a non-"ok" candidate comes back
+    as it is, relabelled planner "physics"."""
+    if not candidate.ok:
+        return replace(candidate, planner="physics",
+                       reason=f"no initialization: {candidate.reason or candidate.status}")
+    cfg = config.physics
+    q = np.array(candidate.trajectory.q, dtype=float)
+    timings, details = {}, {"stages": {}, "initialization": candidate.planner}
+    tic = time.perf_counter()
+    q, result = preprocess(scene, q, config)
+    timings["pre"] = time.perf_counter() - tic
+    details["stages"]["pre"] = _stage_record(result, timings["pre"])
+    stages = (("sphere", "sphere_gripper", min(cfg.sphere_iterations, cfg.iterations)),
+              ("full", "capsules", cfg.iterations - min(cfg.sphere_iterations, cfg.iterations)))
+    last = None
+    for name, variant, iterations in stages:
+        if iterations <= 0:
+            continue
+        tic = time.perf_counter()
+        try:
+            q, result, info = physics_stage(scene, q, config, variant, iterations, pool,
+                                            candidate.trajectory.times)
+        except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
+            timings[name] = time.perf_counter() - tic
+            return _failed(candidate, f"{name} stage: {exc}", timings, details)
+        timings[name] = time.perf_counter() - tic
+        details["stages"][name] = _stage_record(result, timings[name], info)
+        last = (result, info)
+    tic = time.perf_counter()
+    q, result = postprocess(scene, q, config)
+    timings["post"] = time.perf_counter() - tic
+    details["stages"]["post"] = _stage_record(result, timings["post"])
+    if last is not None:
+        details["feedback"] = {"boxes": last[1]["kept_boxes"], "K": last[0].K.tolist(),
+                               "k": last[0].k.tolist()}
+    trajectory = Trajectory(candidate.trajectory.times.copy(), q)
+    return Candidate(candidate.alpha, "ok", "", trajectory, planner="physics", timings=timings,
+                     details=details)
+
+
+def check_config(config: Config) -> None:
+    """Raises ConfigError naming the first ``physics.*`` field that makes no sense."""
+    cfg = config.physics
+    checks = (("iterations", cfg.iterations >= 0, "at least 0"),
+              ("sphere_iterations", cfg.sphere_iterations >= 0, "at least 0"),
+              ("pre_iterations", cfg.pre_iterations >= 0, "at least 0"),
+              ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
+              ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
+              ("force_stiffness", cfg.force_stiffness > 0, "positive"),
+              ("w_speed", cfg.w_speed >= 0, "non-negative"),
+              ("speed_fraction", cfg.speed_fraction > 0, "positive"),
+              ("tolerance", cfg.tolerance >= 0, "non-negative"),
+              ("post_variant", cfg.post_variant in robot_model.VARIANTS,
+               f"one of {', '.join(robot_model.VARIANTS)}"))
+    for name, ok, what in checks:
+        if not ok:
+            raise ConfigError("<configuration>", f"physics.{name}",
+                              f"must be {what}, got {getattr(cfg, name)!r}")
+
+
+def plan_physics(scene: Scene, config: Config | None = None,
+                 candidates: list[Candidate] | None = None,
+                 pool: WorkerPool | None = None) -> list[Candidate]:
+    """Sec. V on every candidate (default: `baseline.plan_baseline` of the scene), in order:
+    one physics Candidate each. A shared worker pool for phi's derivatives is created (and
+    closed) here unless one is passed in."""
+    config = config or Config()
+    check_config(config)
+    if candidates is None:
+        candidates = plan_baseline(scene, config.baseline)
+    own = pool is None and config.dynamics.workers > 0
+    pool = WorkerPool(config.dynamics.workers) if own else pool
+    try:
+        return [optimise_candidate(scene, c, config, pool) for c in candidates]
+    finally:
+        if own:
+            pool.close()
+
+
+def stages_table(candidates: list[Candidate]) -> str:
+    """A text table, one row per physics candidate: alpha, status, seconds per stage, the
+    objective before and after the phi stages, and the reason."""
+    rows = [f"{'alpha':>7} {'status':20} {'pre s':>6} {'sphere s':>8} {'full s':>7} "
+            f"{'post s':>6} {'cost start':>11} {'cost end':>11}  reason"]
+    for c in candidates:
+        t, stages = c.timings, c.details.get("stages", {})
+        phi = [stages[n] for n in ("sphere", "full") if n in stages]
+        start = f"{phi[0]['cost_history'][0]:.4g}" if phi else "-"
+        end = f"{phi[-1]['cost_history'][-1]:.4g}" if phi else "-"
+        rows.append(f"{c.alpha:+7.3f} {c.status:20} {t.get('pre', 0.0):6.1f} "
+                    f"{t.get('sphere', 0.0):8.1f} {t.get('full', 0.0):7.1f} "
+                    f"{t.get('post', 0.0):6.1f} {start:>11} {end:>11}  {c.reason}")
+    return "\n".join(rows)

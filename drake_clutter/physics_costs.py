@@ -27,7 +27,7 @@ Hessian. It prices the force the arm must exert on each box: a box jammed agains
 cannot give way, so the arm sinks into it. Box-box and box-shelf forces are not in it (the
 planning world has no such pairs; a resting box's support force is constant anyway).
 
-Penetration (c_static, c_static_hull, c_dynamic) is `baseline.smooth_penetration` of the
+Penetration (c_static, c_static_hull, c_dynamic) is `clearance.smooth_penetration` of the
 signed distance (linear beyond contact, quadratic inside d_safe), one function for both
 planners; its Hessian here is the Gauss-Newton (1/d_safe) J'J of the quadratic part, kept
 beyond contact too (the linear part has none, and iLQR needs curvature to take a step).
@@ -49,7 +49,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 
 from drake_clutter import costs, robot_model
-from drake_clutter.baseline import smooth_penetration
+from drake_clutter.clearance import smooth_penetration
 from drake_clutter.config import PhysicsConfig
 from drake_clutter.costs import Term
 from drake_clutter.dynamics import ARM_DIM, BOX_TANGENT, StateLayout, box_state_to_pose

@@ -13,7 +13,9 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `physic
    the open gripper, so at the pre-grasp it engulfs the target: in this stage the target is
    taken out of phi (welded 10 m below the floor) and has no c_force; c_grasp aims at its
    resting pose (ours: with the target in phi the sphere shoves it away and c_force, 5e8 on
-   fig5, drove the arm 40 cm off the target; welded in place, SAP failed on the first rollout);
+   fig5, drove the arm 40 cm off the target; welded in place, SAP failed on the first rollout).
+   c_static keeps the capsule gripper: the sphere (radius 0.118 m) cannot reach the pre-grasp
+   without sinking into the board (c_static ~1e3 on fig5, measured);
 3. ``full``: the remaining ``iterations - sphere_iterations`` with the capsule arm;
 4. ``post`` (Sec. V-B): the kinematic arm again, c_static in the evaluation geometry + c_match
    + c_match_vel to the physics plan.
@@ -183,13 +185,16 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
         spec = make_spec(scene, [n for n in spec.dynamic_boxes if n not in held], states,
                          knot_time, config.dynamics, config.world, variant)
     layout: StateLayout = spec.layout
+    # The sphere reaches 3 cm below the board at the pre-grasp height: c_static keeps the
+    # capsule gripper in that stage.
+    static = ArmGeometry(scene, "capsules") if variant == "sphere_gripper" else None
     with PhiDynamics(spec, pool) as dynamics:
         x0 = dynamics.phi.settle(initial_state(layout, q[0], scene_box_states(scene)))
         if not np.all(np.isfinite(dynamics.rollout(x0, q[1:]))):
             raise PhiFailure("phi failed on the initial rollout")
         objective = PhysicsObjective(ArmGeometry(scene, variant), layout, config.physics, x0,
                                      scene.target, knot_time, config.baseline.d_safe,
-                                     force_exclude=held)
+                                     force_exclude=held, static_geometry=static)
         augmented = AugmentedPhi(dynamics)
         z0 = np.concatenate([x0, q[0]])
         result = ilqr.solve(augmented, objective, z0, q[1:], _settings(config, iterations),

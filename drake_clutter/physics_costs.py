@@ -158,15 +158,19 @@ class PhysicsObjective:
 
     ``x0`` is the start state (its boxes' positions are c_motion's p_i^1); ``target`` the
     target box's name (its centre is c_grasp's point: its state position when kept, else its
-    resting pose). Boxes in ``force_exclude`` have no c_force (the sphere stage's target).
+    resting pose). Boxes in ``force_exclude`` have no c_force (the sphere stage's target);
+    ``static_geometry`` (default: ``geometry``) is the arm whose distances to the shelf make
+    c_static (the sphere stage's capsules).
     """
 
     def __init__(self, geometry: ArmGeometry, layout: StateLayout, config: PhysicsConfig,
                  x0: np.ndarray, target: str, knot_time: float, d_safe: float,
-                 force_exclude: tuple[str, ...] = ()):
+                 force_exclude: tuple[str, ...] = (),
+                 static_geometry: ArmGeometry | None = None):
         self.geometry, self.layout, self.config = geometry, layout, config
         self.knot_time, self.d_safe = knot_time, d_safe
         self.force_exclude = tuple(force_exclude)
+        self.static_geometry = static_geometry
         self._max_step = max_steps(config, knot_time)
         self.nx, self.ndx = layout.nx, layout.ndx
         self.nz = self.ndx + ARM_DIM
@@ -191,6 +195,8 @@ class PhysicsObjective:
         cfg, q = self.config, z[:ARM_DIM]
         contacts = self.geometry.contacts(q, self.box_poses(z), self.d_safe)
         shelf = [c for c in contacts if c.obstacle == SHELF]
+        if self.static_geometry is not None:
+            shelf = self.static_geometry.contacts(q, None, self.d_safe, "shelf")
         out = {"static": penetration_term(shelf, self.d_safe, self.nz).scaled(cfg.w_static),
                "force": self._force(contacts).scaled(cfg.w_force)}
         out.update(self._box_terms(z))

@@ -10,10 +10,9 @@ Conventions: joint vectors are TRAJECTORY_JOINTS rows (rad, and m for the grippe
 positions in W (m); a rotation perturbation is a rotation vector dtheta in W,
 R' = exp([dtheta]x) R, matching `dynamics.StateLayout`.
 
-Penetration (Table I, "equal to 0 when the objects are a margin d_safe apart") is penalised as
-the squared hinge max(0, d_safe - d)^2 of the signed distance d: the plain hinge of the paper's
-TrajOpt baseline has a zero Hessian and a kink at d_safe, which iLQR's quadratic model cannot
-use; the squared hinge has the same zero set and a Gauss-Newton Hessian 2 J'J.
+Penetration (Table I) is not here: the baseline and the physics planner share one definition,
+`clearance.smooth_penetration` (linear in depth once touching, quadratic inside d_safe), and
+`physics_costs.penetration_term` chains it onto distance Jacobians.
 
 The upright and gripper-horizontal angles acos(c) have an infinite gradient at 0 (a cone at the
 optimum); they are smoothed as sqrt(theta^2 + eps^2) - eps with eps = `ANGLE_SMOOTHING`, equal
@@ -132,23 +131,6 @@ def gripper_horizontal(z_gripper_W: np.ndarray, dz_dq: np.ndarray) -> Term:
     Gauss-Newton Hessian.
     """
     return _smooth_angle(z_gripper_W[2], dz_dq[2], None)
-
-
-def penetration(distances: np.ndarray, jacobians: np.ndarray, d_safe: float) -> Term:
-    """sum_k max(0, d_safe - d_k)^2 over the arguments of the distance Jacobians (k, n).
-
-    Gauss-Newton Hessian 2 sum J_k' J_k over the active pairs (exact for distances linear in
-    the arguments).
-    """
-    distances = np.asarray(distances, dtype=float)
-    jacobians = np.asarray(jacobians, dtype=float).reshape(len(distances), -1)
-    active = distances < d_safe
-    r = d_safe - distances[active]
-    J = -jacobians[active]
-    n = jacobians.shape[1]
-    if not np.any(active):
-        return Term(0.0, np.zeros(n), np.zeros((n, n)))
-    return _quadratic(r, J)
 
 
 def grasp(p_tool_W: np.ndarray, dp_dq: np.ndarray, p_target_W: np.ndarray) -> Term:

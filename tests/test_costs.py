@@ -91,19 +91,6 @@ def test_gripper_horizontal_gradient():
     _check(term_of, np.array([0.2, -0.1]), hessian_exact=False, rtol=1e-4, atol=1e-6)
 
 
-def test_penetration_hinge():
-    J = RNG.standard_normal((4, 5))
-    d0 = np.array([0.05, 0.01, -0.002, 0.03])
-
-    def term_of(x):  # distances linear in x: the Gauss-Newton Hessian is exact
-        return costs.penetration(d0 + J @ x, J, d_safe=0.02)
-
-    x = np.zeros(5)
-    _check(term_of, x)
-    assert term_of(x).value == pytest.approx(0.01**2 + 0.022**2)
-    assert costs.penetration(np.array([0.5]), np.ones((1, 5)), 0.02).value == 0.0
-
-
 def test_grasp_and_force():
     A = RNG.standard_normal((3, 7))
     target = np.array([0.6, 0.0, 0.8])

@@ -1,6 +1,6 @@
 """phi's Jacobians A_t = dphi/dx and B_t = dphi/du by finite differences (Sec. V), made fast
-enough for iLQR. The step is ``DynamicsConfig.fd_step`` (1e-5 here, 1e-6 in the paper: see
-the config's comment), forward or central (``fd_scheme``).
+enough for iLQR. The step is ``DynamicsConfig.fd_step`` (1e-6 as in the paper; the config's
+comment gives the measured trade-off against 1e-5), forward or central (``fd_scheme``).
 
 Brute force perturbs every column of [x, u] (ndx + nu + 1 phi evaluations per knot). Here:
 
@@ -103,10 +103,13 @@ def group_differences(phi: Phi, x, u, x_next, groups, step: float, scheme: str) 
     return out
 
 
-def dense_jacobians(phi: Phi, x, u, step: float = 1e-6, scheme: str = "forward"):
+def dense_jacobians(phi: Phi, x, u, step: float | None = None, scheme: str | None = None):
     """Brute force: every column perturbed alone; (A (ndx, ndx), B (ndx, nu)) in tangent
-    coordinates, ndx + nu + 1 phi evaluations (2 (ndx + nu) central)."""
+    coordinates, ndx + nu + 1 phi evaluations (2 (ndx + nu) central). Step and scheme default
+    to phi's configuration."""
     layout = phi.layout
+    step = phi.spec.config.fd_step if step is None else step
+    scheme = phi.spec.config.fd_scheme if scheme is None else scheme
     x_next = phi.step(x, u) if scheme == "forward" else None
     cols = [[c] for c in range(layout.ndx + NU)]
     D = group_differences(phi, x, u, x_next, cols, step, scheme).T
@@ -363,7 +366,7 @@ class PhiDynamics:
             return [group_differences(self.phi, w.x, w.u, w.x_next, w.groups, h, scheme)
                     for w in work]
         total = sum(len(w.groups) for w in work)
-        chunk = max(1, math.ceil(total / (4 * self.pool.workers)))
+        chunk = max(1, math.ceil(total / (16 * self.pool.workers)))  # small: balance
         tasks, owners = [], []
         for i, w in enumerate(work):
             for start in range(0, len(w.groups), chunk):

@@ -51,8 +51,10 @@ def _rel(J, ref) -> float:
 
 @pytest.fixture(scope="module")
 def point10():
-    """Bookshelf, 10 boxes, seed 1: the reach pushes into kept boxes in its second half."""
-    return _setup(10, 1)
+    """Bookshelf, 10 boxes, seed 1: the reach pushes into kept boxes in its second half.
+    fd_step 1e-5: settled boxes are where SAP's stopping tolerance makes 1e-6 noisy (2e-2),
+    and these tests check the bookkeeping, not the step."""
+    return _setup(10, 1, fd_step=1e-5)
 
 
 # ----------------------------------------------------------------------------- pure parts

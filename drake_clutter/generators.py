@@ -184,8 +184,13 @@ def _place(rng, box: BoxObject, space: _FreeSpace, region, config) -> BoxObject 
     return None
 
 
+def _max_box_height(shelf: Shelf, config: GeneratorConfig) -> float:
+    """Tallest box that fits under a fridge's ceiling with the minimum gap (inf on a bookshelf)."""
+    return shelf.walls.height - config.min_gap if shelf.walls else math.inf
+
+
 def _place_or_redraw(rng, ranges, name, color, shelf: Shelf, space, region, config):
-    max_height = shelf.walls.height - config.min_gap if shelf.walls else math.inf
+    max_height = _max_box_height(shelf, config)
     box = _draw_box(rng, ranges, name, color, max_height)
     for _ in range(config.max_redraws_per_box):
         placed = _place(rng, box, space, region, config)
@@ -204,7 +209,7 @@ def _populate(rng, shelf: Shelf, target_region, num_objects: int,
     space = _FreeSpace((x0, x1, y0, y1), config.min_gap)
     boxes = [_place_or_redraw(rng, config.target, TARGET_NAME, TARGET_COLOR, shelf, space,
                               target_region, config)]
-    max_height = shelf.walls.height - config.min_gap if shelf.walls else math.inf
+    max_height = _max_box_height(shelf, config)
     drawn = [_draw_box(rng, config.boxes, "", OBSTACLE_COLOR, max_height)
              for _ in range(num_objects - 1)]
     drawn.sort(key=lambda b: -b.size[0] * b.size[1])

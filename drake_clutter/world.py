@@ -28,7 +28,6 @@ from pydrake.geometry import (
     CollisionFilterDeclaration,
     GeometrySet,
     ProximityProperties,
-    Role,
     Sphere,
 )
 from pydrake.math import RigidTransform, RollPitchYaw
@@ -384,13 +383,3 @@ def step(world: World, root_context: Context, num_steps: int = 1) -> None:
         state = plant.EvalUniquePeriodicDiscreteUpdate(context)
         context.SetDiscreteState(state.value())
         root_context.SetTime(root_context.get_time() + plant.time_step())
-
-
-def robot_geometry_names(world: World, role: Role = Role.kProximity) -> list[str]:
-    """Names of the robot's geometries with ``role`` (for checks and debugging)."""
-    inspector = world.scene_graph.model_inspector()
-    ids = []
-    for index in world.plant.GetBodyIndices(world.robot):
-        frame_id = world.plant.GetBodyFrameIdOrThrow(index)
-        ids += inspector.GetGeometries(frame_id, role)
-    return [inspector.GetName(g) for g in ids]

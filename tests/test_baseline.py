@@ -237,7 +237,10 @@ def test_path_cost_gradient_matches_finite_differences(bookshelf, world, clearan
         direction = rng.normal(size=q.shape)
         numeric = (optimiser.path_cost(q + eps * direction, 2)[0]
                    - optimiser.path_cost(q - eps * direction, 2)[0]) / (2 * eps)
-        assert np.sum(grad * direction) == pytest.approx(numeric, rel=1e-3, abs=1e-8)
+        # Relative to the sum of the magnitudes of the terms: a directional derivative can be a
+        # near-cancellation of large terms, where plain relative error measures rounding.
+        scale = np.sum(np.abs(grad * direction))
+        assert abs(np.sum(grad * direction) - numeric) <= 1e-3 * scale + 1e-8
 
 
 def test_spline_basis_reproduces_straight_lines():

@@ -160,6 +160,30 @@ def _physics_candidates(scene, config, baseline_candidates, planner: str) -> lis
     return physics if planner == "physics" else list(baseline_candidates) + physics
 
 
+def _cmd_experiment_run(args) -> int:
+    from drake_clutter.executors import format_summary, run_experiment
+    from drake_clutter.experiments import load_spec
+
+    spec, spec_file = load_spec(args.spec)
+    if args.workers < 1:
+        raise InputError("<command line>", "--workers", f"must be at least 1, got {args.workers}")
+    summary = run_experiment(spec, spec_file, args.db, args.executor, args.workers, args.address,
+                             args.retry_failed, progress=not args.no_progress)
+    print(format_summary(summary))
+    return 0
+
+
+def _cmd_report(args) -> int:
+    from drake_clutter.report import write_report
+    from drake_clutter.store import Store
+
+    with Store(args.db, create=False) as store:
+        rows = store.rows()
+    paths = write_report(rows, args.out, source=str(args.db))
+    print(f"{len(rows)} rows from {args.db}; wrote {', '.join(sorted(paths))} to {args.out}")
+    return 0
+
+
 def _cmd_config_show(args) -> int:
     from drake_clutter.config import config_to_data
     from drake_clutter.typed_yaml import dump_yaml
@@ -221,6 +245,23 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--out", required=True, help="plan file (JSON) to write")
     _add_config_args(plan)
     plan.set_defaults(func=_cmd_plan)
+
+    exp = groups.add_parser("experiment", help="run experiments (Sec. VI-B) into a store")
+    exp_cmds = exp.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
+    run = exp_cmds.add_parser("run", help="run a spec's missing units (resumable)")
+    run.add_argument("spec", help="an experiment spec (YAML) or a tier: smoke, small, paper")
+    run.add_argument("--db", required=True, help="SQLite store to fill (created if absent)")
+    run.add_argument("--workers", type=int, default=2, help="processes / Ray CPUs (default 2)")
+    run.add_argument("--executor", choices=("local", "ray"), default="local")
+    run.add_argument("--address", help="Ray cluster address (default: a local Ray instance)")
+    run.add_argument("--retry-failed", action="store_true",
+                     help="run again the units whose planner raised or whose worker died")
+    run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.set_defaults(func=_cmd_experiment_run)
+    rep = groups.add_parser("report", help="Tables III/IV and Fig. 9 from a store")
+    rep.add_argument("db", help="an experiment store (SQLite)")
+    rep.add_argument("--out", required=True, help="directory for the Markdown, CSV and PNGs")
+    rep.set_defaults(func=_cmd_report)
 
     cfg = groups.add_parser("config", help="inspect the configuration")
     cfg_cmds = cfg.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)

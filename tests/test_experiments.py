@@ -1,0 +1,204 @@
+"""Experiment specs, tiers, work units, the unit worker and the executors (issue 7)."""
+
+from __future__ import annotations
+
+import os
+import sqlite3
+
+import pytest
+
+from drake_clutter.cli import main
+from drake_clutter.config import load_config
+from drake_clutter.executors import DEAD_WORKER_REASON, run_experiment, run_local
+from drake_clutter.experiments import (
+    TIERS,
+    SpecError,
+    config_hash,
+    expand,
+    failure_result,
+    load_spec,
+    run_unit,
+    split_wall_times,
+)
+from drake_clutter.store import Store
+
+CRASH_SCENE = "crash_me"
+
+
+def _write(tmp_path, text: str, name: str = "spec.yaml"):
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+TINY = """
+name: tiny
+planners: [baseline]
+generated:
+  - {kind: bookshelf, levels: [1], seeds: [2015]}
+angles: [4, 9]
+overrides: [dynamics.workers=0]
+"""
+
+
+def test_tiers_load_and_expand():
+    counts = {}
+    for tier in TIERS:
+        spec, path = load_spec(tier)
+        assert path.endswith(f"{tier}.yaml")
+        units = expand(spec, path)
+        assert len({u.key for u in units}) == len(units)  # no duplicate keys
+        counts[tier] = len(units)
+    # Sec. VI-B: 150 scenes x 14 angles, both planners.
+    assert counts["paper"] == 150 * 14 * 2
+    assert counts["smoke"] == 4 * 2 * 2
+    assert counts["smoke"] < counts["small"] < counts["paper"]
+
+
+def test_small_tier_covers_every_clutter_level():
+    spec, path = load_spec("small")
+    levels = {(u.kind, u.num_objects) for u in expand(spec, path)}
+    config = load_config()
+    assert levels == ({("bookshelf", n) for n in config.generator.bookshelf.clutter_levels}
+                      | {("fridge", n) for n in config.generator.fridge.clutter_levels})
+
+
+def test_spec_units_and_hash(tmp_path):
+    spec, path = load_spec(_write(tmp_path, TINY))
+    units = expand(spec, path)
+    assert [(u.scene, u.planner, u.angle) for u in units] == [
+        ("bookshelf_n01_s2015", "baseline", 4), ("bookshelf_n01_s2015", "baseline", 9)]
+    # The hash is the resolved configuration's: an override to the default value changes
+    # nothing, a real change gives another hash.
+    default = config_hash(load_config(None, ["dynamics.workers=0"]))
+    assert units[0].config_hash == default
+    same = config_hash(load_config(None, ["dynamics.workers=0", "baseline.num_angles=14"]))
+    other = config_hash(load_config(None, ["dynamics.workers=0", "baseline.num_angles=12"]))
+    assert same == default != other
+
+
+@pytest.mark.parametrize("text,field,needle", [
+    (TINY + "colour: red\n", "colour", "unknown key"),
+    (TINY.replace("[baseline]", "[rrt]"), "planners[0]", "must be one of"),
+    (TINY.replace("[4, 9]", "[4, 14]"), "angles", "index 14 outside"),
+    (TINY + "scene_set: everything\n", "scene_set", "unknown scene set"),
+    (TINY.replace("[dynamics.workers=0]", "[dynamics.wrokers=0]"),
+     "overrides (dynamics.wrokers)", "unknown key"),
+    (TINY + "configurations: {a: [], b: [baseline.num_angles=14]}\n", "configurations.b",
+     "the same settings as configuration 'a'"),
+    (TINY + "configurations: {few: [physics.iterations=-1]}\n",
+     "configurations.few (physics.iterations)", "at least 0"),
+    (TINY.replace("levels: [1]", "levels: [0]"), "generated[0].levels", "at least 1"),
+    ("name: x\nplanners: [baseline]\n", "scene_set", "name some scenes"),
+])
+def test_bad_spec_names_file_and_field(tmp_path, text, field, needle):
+    path = _write(tmp_path, text)
+    with pytest.raises(SpecError) as info:
+        load_spec(path)
+    assert info.value.field == field and needle in info.value.reason
+    assert str(path) in str(info.value)
+
+
+def test_bad_spec_on_the_command_line_is_one_line_and_exit_2(tmp_path, capsys):
+    path = _write(tmp_path, TINY.replace("[4, 9]", "[4, 99]"))
+    assert main(["experiment", "run", str(path), "--db", str(tmp_path / "r.db")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(path) in err and "angles" in err
+    assert main(["experiment", "run", "no_such_tier", "--db", str(tmp_path / "r.db")]) == 2
+    assert "no such file" in capsys.readouterr().err
+
+
+def test_run_unit_is_deterministic_and_plain(tmp_path):
+    spec, path = load_spec(_write(tmp_path, TINY))
+    unit = expand(spec, path)[0].to_data()
+    first, second = run_unit(unit), run_unit(unit)
+    assert first["error"] == "" and first["plan"]["status"] == "ok"
+    assert first["outcome"]["kind"] in ("success", "partial_success", "failure_to_grasp",
+                                        "objects_falling", "kinematic_failure")
+    assert first["outcome"] == second["outcome"] and first["plan"] == second["plan"]
+    assert "wall_time" not in first["outcome"] and "timings" not in first["plan"]
+    assert first["timings"]["plan"] > 0 and first["timings"]["eval"] > 0
+    assert abs(first["alpha"] - (-1.0 + 2.0 / 14 * 4.5)) < 1e-12  # approach_angles' index 4
+
+
+def test_run_unit_records_an_exception_as_planner_failure(tmp_path):
+    spec, path = load_spec(_write(tmp_path, TINY))
+    unit = expand(spec, path)[0].to_data()
+    unit["angle"] = 40  # no such approach angle: IndexError inside the worker
+    result = run_unit(unit)
+    assert result["outcome"]["kind"] == "planner_failure"
+    assert "IndexError" in result["error"] and result["plan"] is None
+
+
+def crash_or_echo(unit: dict) -> dict:
+    """Test work function (run in spawned workers): the unit named CRASH_SCENE kills its
+    worker process; any other unit returns a result naming itself."""
+    if unit["scene"] == CRASH_SCENE:
+        os._exit(3)
+    result = failure_result("echo", "")
+    result["outcome"]["kind"], result["alpha"] = "success", float(unit["angle"])
+    return result
+
+
+def test_dead_worker_is_recorded_and_the_run_goes_on():
+    units = [{"scene": f"s{i}", "angle": i} for i in range(5)]
+    units.insert(2, {"scene": CRASH_SCENE, "angle": 99})
+    got = []
+    run_local(units, lambda unit, result: got.append((unit, result)), workers=2,
+              work=crash_or_echo)
+    assert sorted(u["scene"] for u, _ in got) == sorted(u["scene"] for u in units)
+    for unit, result in got:
+        if unit["scene"] == CRASH_SCENE:
+            assert result["outcome"]["kind"] == "planner_failure"
+            assert result["error"] == DEAD_WORKER_REASON
+        else:
+            assert result["outcome"]["kind"] == "success" and result["error"] == ""
+
+
+def test_run_experiment_resumes_and_retries_failed(tmp_path):
+    spec, path = load_spec(_write(tmp_path, TINY))
+    db = tmp_path / "r.db"
+    with Store(db) as store:  # a failed row from an earlier run
+        unit = expand(spec, path)[1].to_data()
+        store.put(unit, failure_result("worker died", "boom"))
+    summary = run_experiment(spec, path, db, workers=1, progress=False)
+    assert summary["ran"] == 1 and summary["skipped"] == 1  # the failed row counts as done
+    summary = run_experiment(spec, path, db, workers=1, progress=False, retry_failed=True)
+    assert summary["ran"] == 1 and summary["skipped"] == 1
+    with Store(db) as store:
+        rows = store.rows()
+    assert len(rows) == 2 and all(r["error"] == "" for r in rows)
+    again = run_experiment(spec, path, db, workers=1, progress=False, retry_failed=True)
+    assert again["ran"] == 0 and again["skipped"] == 2
+    with sqlite3.connect(db) as con:
+        assert con.execute("SELECT COUNT(*) FROM runs WHERE finished IS NOT NULL"
+                           ).fetchone()[0] == 3
+
+
+@pytest.mark.slow
+def test_ray_gives_the_same_rows_as_the_local_pool_on_smoke(tmp_path):
+    import ray  # noqa: F401 - the dev extra installs it; CI must run this test
+
+    spec, path = load_spec("smoke")
+    local = run_experiment(spec, path, tmp_path / "local.db", "local", 2, progress=False)
+    ray_run = run_experiment(spec, path, tmp_path / "ray.db", "ray", 2, progress=False)
+    assert local["ran"] == ray_run["ran"] == len(expand(spec, path))
+
+    def table(db):
+        with Store(db) as store:
+            return {(r["scene"], r["planner"], r["angle"], r["config_hash"]):
+                    (r["kind"], r["alpha"], r["outcome"], r["plan"], r["error"])
+                    for r in store.rows()}
+
+    a, b = table(tmp_path / "local.db"), table(tmp_path / "ray.db")
+    assert a.keys() == b.keys()
+    for key in a:
+        assert a[key] == b[key], key
+
+
+def test_split_wall_times_keeps_plans_deterministic():
+    details = {"height": 0.05, "stages": {"pre": {"seconds": 1.2, "cost_history": [3.0],
+                                                  "timings": {"forward": 0.7}}}}
+    taken = split_wall_times(details)
+    assert details == {"height": 0.05, "stages": {"pre": {"cost_history": [3.0]}}}
+    assert taken == {"stages": {"pre": {"seconds": 1.2, "timings": {"forward": 0.7}}}}

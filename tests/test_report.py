@@ -1,0 +1,110 @@
+"""Reports: Tables III and IV and the Fig. 9 PNGs from a small store (synthetic rows, real code)."""
+
+from __future__ import annotations
+
+import csv
+import struct
+
+import numpy as np
+import pytest
+
+from drake_clutter.cli import main
+from drake_clutter.report import PAPER_TABLE_III, table_iii, table_iv
+from drake_clutter.store import Store
+
+# (env, objects, seed) -> per planner, the outcome kinds of its angles.
+SCENES = {
+    ("bookshelf", 1, 0): {"baseline": ["success", "failure_to_grasp"],
+                          "physics": ["success", "success"]},
+    ("bookshelf", 10, 0): {"baseline": ["partial_success", "planner_failure"],
+                           "physics": ["success", "planner_failure"]},
+    ("fridge", 2, 0): {"baseline": ["kinematic_failure", "objects_falling"],
+                       "physics": ["partial_success", "kinematic_failure"]},
+    ("fridge", 2, 1): {"baseline": ["failure_to_grasp", "failure_to_grasp"],
+                       "physics": ["failure_to_grasp", "success"]},
+    ("fridge", 8, 0): {"baseline": ["planner_failure", "planner_failure"],
+                       "physics": ["planner_failure", "planner_failure"]},
+}
+
+
+def _fill(db):
+    with Store(db) as store:
+        for (env, n, seed), planners in SCENES.items():
+            for planner, kinds in planners.items():
+                for angle, kind in enumerate(kinds):
+                    unit = {"scene": f"{env}_n{n:02d}_s{seed}", "planner": planner,
+                            "angle": angle, "config_hash": "abc", "config_name": "default",
+                            "kind": env, "num_objects": n}
+                    stages = {"pre": 1.0, "sphere": 2.0 * n, "full": 3.0, "post": 0.5}
+                    timings = {"plan": 0.3 + n, "eval": 0.4,
+                               "planner": stages if planner == "physics" else {"ik": 0.1}}
+                    if kind == "planner_failure":
+                        timings["planner"] = {}
+                    store.put(unit, {"alpha": 0.1 * angle, "outcome": {"kind": kind},
+                                     "plan": {"status": "ok"}, "timings": timings, "error": ""})
+        return store.rows()
+
+
+def _by(table, **match):
+    return [r for r in table if all(r[k] == v for k, v in match.items())]
+
+
+def test_table_iii_scene_scores(tmp_path):
+    rows = _fill(tmp_path / "r.db")
+    t3 = table_iii(rows)
+    base_shelf = _by(t3, planner="baseline", environment="bookshelf")[0]
+    # Bookshelf baseline: one scene success, one partial -> 100% (50%), success 50%.
+    assert base_shelf["scenes"] == 2 and base_shelf["success_pct"] == 50.0
+    assert base_shelf["partial_pct"] == 50.0 and base_shelf["success_or_partial_pct"] == 100.0
+    base_fridge = _by(t3, planner="baseline", environment="fridge")[0]
+    assert base_fridge["scenes"] == 3 and base_fridge["success_or_partial_pct"] == 0.0
+    phys_all = _by(t3, planner="physics", environment="aggregate")[0]
+    # Physics: bookshelf 2 successes, fridge s0 partial, s1 success, n8 failure.
+    assert phys_all["scenes"] == 5 and phys_all["success_pct"] == pytest.approx(60.0)
+    assert phys_all["partial_pct"] == pytest.approx(20.0)
+    assert phys_all["paper_success_or_partial_pct"] == PAPER_TABLE_III["physics"]["aggregate"][0]
+
+
+def test_table_iv_counts_trajectories_only(tmp_path):
+    t4 = table_iv(_fill(tmp_path / "r.db"))
+    base = {r["outcome"]: r for r in _by(t4, planner="baseline")}
+    # Baseline: 10 angles, 3 without a trajectory, 7 trajectories.
+    assert base["planner_failure"]["count"] == 3 and base["planner_failure"]["pct"] is None
+    assert base["failure_to_grasp"]["count"] == 3
+    assert base["failure_to_grasp"]["pct"] == pytest.approx(300 / 7)
+    assert sum(r["pct"] for k, r in base.items() if k != "planner_failure") == pytest.approx(100)
+    assert base["success"]["paper_pct"] == 36.9
+
+
+def _png_size(path) -> tuple[int, int]:
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
+
+
+def test_report_has_both_tables_and_four_figures(tmp_path, capsys):
+    _fill(tmp_path / "r.db")
+    out = tmp_path / "report"
+    assert main(["report", str(tmp_path / "r.db"), "--out", str(out)]) == 0
+    assert "20 rows" in capsys.readouterr().out
+    text = (out / "report.md").read_text()
+    assert "Table III" in text and "Table IV" in text and "76.7% (8.3%)" in text
+    assert "48.7%" in text  # the paper's Table IV beside ours
+    with (out / "table3.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == 2 * 3
+    with (out / "table4.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == 2 * 6
+    # The four figures: Fig. 9a, 9b, 9c and the three panels together; their points in CSV.
+    with (out / "fig9.csv").open() as f:
+        points = list(csv.DictReader(f))
+    assert {(p["planner"], p["environment"], p["num_objects"]) for p in points} == {
+        (pl, env, str(n)) for pl in ("baseline", "physics") for env, n, _ in SCENES}
+    from matplotlib.image import imread
+
+    for name in ("fig9a.png", "fig9b.png", "fig9c.png", "fig9.png"):
+        width, height = _png_size(out / name)
+        assert width >= 400 and height >= 300
+        pixels = imread(out / name)[..., :3]
+        colours = np.unique(pixels.reshape(-1, 3).round(2), axis=0)
+        assert len(colours) > 20  # lines, markers, text: not a blank canvas
+        assert (pixels < 0.9).any(axis=-1).mean() > 0.01  # some ink on the page

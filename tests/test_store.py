@@ -1,0 +1,134 @@
+"""The SQLite results store: unique rows, upserts of failed rows only, resume after SIGKILL."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from drake_clutter.cli import main
+from drake_clutter.experiments import failure_result
+from drake_clutter.store import Store, StoreError
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _unit(scene="s", angle=0, planner="baseline", config_hash="h"):
+    return {"scene": scene, "planner": planner, "angle": angle, "config_hash": config_hash,
+            "config_name": "default", "kind": "bookshelf", "num_objects": 3}
+
+
+def _ok(kind="success", alpha=0.1):
+    return {"alpha": alpha, "outcome": {"kind": kind, "reason": "r"},
+            "plan": {"status": "ok", "trajectory": {"q": [[0.0, 1.0]]}},
+            "timings": {"plan": 1.5, "eval": 0.5}, "error": ""}
+
+
+def test_put_and_read_back(tmp_path):
+    with Store(tmp_path / "r.db") as store:
+        assert store.put(_unit(angle=0), _ok())
+        assert store.put(_unit(angle=1), _ok("failure_to_grasp"))
+        rows = store.rows()
+        assert [r["angle"] for r in rows] == [0, 1]
+        assert rows[0]["outcome"] == {"kind": "success", "reason": "r"}
+        assert rows[0]["plan"]["trajectory"]["q"] == [[0.0, 1.0]]
+        assert rows[1]["kind"] == "failure_to_grasp" and rows[1]["env"] == "bookshelf"
+        assert store.done_keys() == {("s", "baseline", 0, "h"), ("s", "baseline", 1, "h")}
+        assert store.integrity() == "ok"
+
+
+def test_a_finished_row_is_never_overwritten_a_failed_one_is(tmp_path):
+    with Store(tmp_path / "r.db") as store:
+        assert store.put(_unit(), _ok("success"))
+        assert not store.put(_unit(), _ok("kinematic_failure"))  # same key: ignored
+        assert store.rows()[0]["kind"] == "success" and store.count() == 1
+        store.put(_unit(angle=1), failure_result("worker died", "traceback ..."))
+        assert ("s", "baseline", 1, "h") in store.done_keys()
+        assert ("s", "baseline", 1, "h") not in store.done_keys(retry_failed=True)
+        assert store.put(_unit(angle=1), _ok("partial_success"))  # replaces the failure
+        rows = store.rows()
+        assert store.count() == 2 and rows[1]["kind"] == "partial_success"
+        assert rows[1]["error"] == ""
+
+
+def test_unique_key_holds_in_sql(tmp_path):
+    with Store(tmp_path / "r.db") as store:
+        store.put(_unit(), _ok())
+    with sqlite3.connect(tmp_path / "r.db") as con, pytest.raises(sqlite3.IntegrityError):
+        con.execute("INSERT INTO results (scene, planner, angle, config_hash, config_name, env, "
+                    "num_objects, kind, outcome, timings, created) VALUES "
+                    "('s', 'baseline', 0, 'h', 'x', 'bookshelf', 1, 'success', '{}', '{}', 0)")
+
+
+def test_bad_store_files(tmp_path, capsys):
+    with pytest.raises(StoreError, match="no such store file"):
+        Store(tmp_path / "missing.db", create=False)
+    junk = tmp_path / "junk.db"
+    junk.write_bytes(b"this is not a database at all" * 100)
+    with pytest.raises(StoreError, match="not a usable experiment store"):
+        Store(junk)
+    assert main(["report", str(tmp_path / "missing.db"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "missing.db" in err
+
+
+SPEC = """
+name: kill_test
+planners: [baseline]
+generated:
+  - {kind: fridge, levels: [1], seeds: [7]}
+angles: [2, 4, 6, 7, 9, 11]
+overrides: [dynamics.workers=0]
+"""
+
+
+def _count(db: Path) -> int:
+    if not db.exists():
+        return 0
+    try:
+        with sqlite3.connect(f"file:{db}?mode=ro", uri=True, timeout=1.0) as con:
+            return con.execute("SELECT COUNT(*) FROM results").fetchone()[0]
+    except sqlite3.OperationalError:  # the schema is not there yet
+        return 0
+
+
+def _rows(db: Path) -> list[tuple]:
+    with sqlite3.connect(db) as con:
+        return con.execute("SELECT scene, planner, angle, config_hash, kind, outcome, plan "
+                           "FROM results ORDER BY scene, angle").fetchall()
+
+
+def test_resume_after_sigkill_loses_and_duplicates_nothing(tmp_path):
+    spec, db = tmp_path / "spec.yaml", tmp_path / "run.db"
+    spec.write_text(SPEC, encoding="utf-8")
+    command = [sys.executable, "-m", "drake_clutter.cli", "experiment", "run", str(spec),
+               "--db", str(db), "--workers", "1", "--no-progress"]
+    # Its own session, so that SIGKILL reaches the runner and its worker together, as when
+    # the machine kills the job.
+    proc = subprocess.Popen(command, cwd=REPO, start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 120
+        while _count(db) < 1 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert proc.poll() is None, "the run ended before it could be killed"
+        assert _count(db) >= 1
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    before = _rows(db)
+    assert 1 <= len(before) < 6
+    done = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert f"{6 - len(before)} units run, {len(before)} already in the store" in done.stdout
+    after = _rows(db)
+    assert len(after) == 6 and len({r[:4] for r in after}) == 6
+    assert set(before) <= set(after)  # committed rows are untouched
+    with sqlite3.connect(db) as con:
+        assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"

@@ -107,8 +107,12 @@ def _collect(future, unit: dict, alone: bool, suspects: deque, on_result: OnResu
     return False
 
 
+RAY_WINDOW = 4  # ours: tasks in flight per cluster CPU; enough to keep every CPU busy while
+# results come back, few enough that the driver never holds thousands of pending tasks
+
+
 def run_ray(units: Iterable[dict], on_result: OnResult, workers: int | None,
-            address: str | None = None, max_retries: int = 2, window: int = 4,
+            address: str | None = None, max_retries: int = 2, window: int = RAY_WINDOW,
             work: Callable[[dict], dict] = run_unit) -> None:
     """Runs ``units`` as Ray tasks (see the module docstring). ``workers`` sets the CPUs of a
     local instance (None: all); with ``address`` Ray joins that cluster. At most ``window`` x
@@ -164,17 +168,16 @@ def run_experiment(spec, spec_file: str, db_path, executor: str = "local", worke
     started = time.perf_counter()
     units = expand(spec, spec_file)
     with Store(db_path) as store:
-        for name in spec.configurations:
-            config = resolve_config(spec, name, spec_file)
-            unit = next(u for u in units if u.config_name == name) if units else None
-            if unit is not None:
-                store.add_configuration(unit.config_hash, name, unit.overrides,
-                                        config_to_data(config))
+        for unit in {u.config_name: u for u in units}.values():
+            config = resolve_config(spec, unit.config_name, spec_file)
+            store.add_configuration(unit.config_hash, unit.config_name, unit.overrides,
+                                    config_to_data(config))
         done = store.done_keys(retry_failed)
         todo = [u.to_data() for u in units if u.key not in done]
         run_id = store.start_run(spec.name, spec_file, executor, workers, len(units),
                                  len(units) - len(todo))
         counts: dict[str, int] = {}
+        by_planner: dict[str, dict[str, int]] = {}
         bar = tqdm(total=len(todo), desc=spec.name, unit="unit", disable=not progress,
                    dynamic_ncols=True)
 
@@ -182,27 +185,31 @@ def run_experiment(spec, spec_file: str, db_path, executor: str = "local", worke
             store.put(unit, result)
             key = "error" if result["error"] else result["outcome"]["kind"]
             counts[key] = counts.get(key, 0) + 1
+            mine = by_planner.setdefault(unit["planner"], {})
+            mine[key] = mine.get(key, 0) + 1
             bar.set_postfix_str(" ".join(f"{k}={v}" for k, v in sorted(counts.items())),
                                 refresh=False)
             bar.update(1)
 
         try:
             if executor == "ray":
-                run_ray(todo, on_result, workers, address, work=work)
+                run_ray(todo, on_result, workers, address, spec.ray_max_retries, work=work)
             else:
                 run_local(todo, on_result, workers, work=work)
         finally:
             bar.close()
         store.finish_run(run_id)
     return {"spec": spec.name, "units": len(units), "skipped": len(units) - len(todo),
-            "ran": sum(counts.values()), "counts": counts,
+            "ran": sum(counts.values()), "counts": counts, "by_planner": by_planner,
             "elapsed": time.perf_counter() - started, "executor": executor}
 
 
 def format_summary(summary: dict) -> str:
     """One paragraph: units run and skipped, counts per outcome kind, errors, elapsed time."""
     counts = summary["counts"]
-    kinds = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()) if k != "error") or "none"
+    kinds = "; ".join(f"{planner}: " + ", ".join(f"{k} {v}" for k, v in sorted(c.items())
+                                                 if k != "error")
+                      for planner, c in sorted(summary["by_planner"].items())) or "none"
     return (f"{summary['spec']}: {summary['ran']} units run, {summary['skipped']} already in "
             f"the store (of {summary['units']}); outcomes: {kinds}; errors (exceptions or "
             f"dead workers): {counts.get('error', 0)}; {summary['elapsed']:.1f} s "

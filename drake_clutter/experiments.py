@@ -73,6 +73,8 @@ class ExperimentSpec:
     configurations: dict[str, tuple[str, ...]] = field(
         default_factory=lambda: {"default": ()})
     description: str = ""
+    ray_max_retries: int = 2  # ours: Ray re-runs a task whose worker died this many times
+    # (a node lost twice in a row is no longer bad luck); then the unit is a failed row
 
 
 @dataclass(frozen=True)
@@ -140,6 +142,8 @@ def check_spec(spec: ExperimentSpec, file) -> None:
     if spec.scene_set and spec.scene_set not in SCENE_SETS:
         raise SpecError(file, "scene_set", f"unknown scene set {spec.scene_set!r} "
                                            f"(known: {', '.join(SCENE_SETS)})")
+    if spec.ray_max_retries < 0:
+        raise SpecError(file, "ray_max_retries", "must be non-negative")
     if spec.scenes_per_level < 0:
         raise SpecError(file, "scenes_per_level", "must be non-negative")
     for i, gen in enumerate(spec.generated):

@@ -9,7 +9,13 @@ import pytest
 
 from drake_clutter.cli import main
 from drake_clutter.config import load_config
-from drake_clutter.executors import DEAD_WORKER_REASON, run_experiment, run_local
+from drake_clutter.executors import (
+    DEAD_WORKER_REASON,
+    format_summary,
+    run_experiment,
+    run_local,
+    run_ray,
+)
 from drake_clutter.experiments import (
     TIERS,
     SpecError,
@@ -90,6 +96,7 @@ def test_spec_units_and_hash(tmp_path):
      "configurations.few (physics.iterations)", "at least 0"),
     (TINY.replace("levels: [1]", "levels: [0]"), "generated[0].levels", "at least 1"),
     ("name: x\nplanners: [baseline]\n", "scene_set", "name some scenes"),
+    (TINY + "ray_max_retries: -1\n", "ray_max_retries", "non-negative"),
 ])
 def test_bad_spec_names_file_and_field(tmp_path, text, field, needle):
     path = _write(tmp_path, text)
@@ -132,8 +139,12 @@ def test_run_unit_records_an_exception_as_planner_failure(tmp_path):
 
 def crash_or_echo(unit: dict) -> dict:
     """Test work function (run in spawned workers): the unit named CRASH_SCENE kills its
-    worker process; any other unit returns a result naming itself."""
+    worker process (after appending a line to its ``attempts`` file, if it has one); any
+    other unit returns a result naming itself."""
     if unit["scene"] == CRASH_SCENE:
+        if unit.get("attempts"):
+            with open(unit["attempts"], "a") as f:
+                f.write("attempt\n")
         os._exit(3)
     result = failure_result("echo", "")
     result["outcome"]["kind"], result["alpha"] = "success", float(unit["angle"])
@@ -163,6 +174,8 @@ def test_run_experiment_resumes_and_retries_failed(tmp_path):
         store.put(unit, failure_result("worker died", "boom"))
     summary = run_experiment(spec, path, db, workers=1, progress=False)
     assert summary["ran"] == 1 and summary["skipped"] == 1  # the failed row counts as done
+    text = format_summary(summary)
+    assert "1 units run, 1 already in the store (of 2)" in text and "baseline: " in text
     summary = run_experiment(spec, path, db, workers=1, progress=False, retry_failed=True)
     assert summary["ran"] == 1 and summary["skipped"] == 1
     with Store(db) as store:
@@ -202,3 +215,23 @@ def test_split_wall_times_keeps_plans_deterministic():
     taken = split_wall_times(details)
     assert details == {"height": 0.05, "stages": {"pre": {"cost_history": [3.0]}}}
     assert taken == {"stages": {"pre": {"seconds": 1.2, "timings": {"forward": 0.7}}}}
+
+
+@pytest.mark.slow
+def test_ray_retries_a_dead_worker_then_records_it(tmp_path):
+    import sys
+
+    from ray import cloudpickle
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers cannot import tests
+    attempts = tmp_path / "attempts.txt"
+    units = [{"scene": f"s{i}", "angle": i} for i in range(3)]
+    units.append({"scene": CRASH_SCENE, "angle": 99, "attempts": str(attempts)})
+    got = {}
+    run_ray(units, lambda unit, result: got.setdefault(unit["scene"], result), workers=2,
+            max_retries=2, work=crash_or_echo)
+    assert sorted(got) == sorted(u["scene"] for u in units)
+    assert attempts.read_text().count("attempt") == 3  # the first try and 2 retries
+    assert got[CRASH_SCENE]["outcome"]["kind"] == "planner_failure"
+    assert "ray:" in got[CRASH_SCENE]["outcome"]["reason"]
+    assert all(got[f"s{i}"]["outcome"]["kind"] == "success" for i in range(3))

@@ -57,12 +57,12 @@ def run_local(units: Iterable[dict], on_result: OnResult, workers: int,
     in_flight: dict = {}
     try:
         while pending or suspects or in_flight:
-            _fill(pool, work, pending, suspects, in_flight, workers)
-            done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
-            broken = False
-            for future in done:
-                unit, alone = in_flight.pop(future)
-                broken |= _collect(future, unit, alone, suspects, on_result)
+            broken = not _fill(pool, work, pending, suspects, in_flight, workers)
+            if not broken:
+                done, _ = wait(in_flight, return_when=FIRST_COMPLETED)
+                for future in done:
+                    unit, alone = in_flight.pop(future)
+                    broken |= _collect(future, unit, alone, suspects, on_result)
             if broken:
                 for future, (unit, alone) in list(in_flight.items()):
                     _collect(future, unit, alone, suspects, on_result)
@@ -77,16 +77,18 @@ def _new_pool(workers: int) -> ProcessPoolExecutor:
     return ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
 
 
-def _fill(pool, work, pending: deque, suspects: deque, in_flight: dict, workers: int) -> None:
-    """Submits units: a suspect only into an empty pool, alone; else up to ``workers``."""
-    if suspects:
-        if not in_flight:
-            unit = suspects.popleft()
-            in_flight[pool.submit(work, unit)] = (unit, True)
-        return
-    while pending and len(in_flight) < workers:
-        unit = pending.popleft()
-        in_flight[pool.submit(work, unit)] = (unit, False)
+def _fill(pool, work, pending: deque, suspects: deque, in_flight: dict, workers: int) -> bool:
+    """Submits units: a suspect only into an empty pool, alone; else up to ``workers``.
+    Returns False (the unit back in its queue) when the pool broke while idle."""
+    queue, alone, limit = (suspects, True, 1) if suspects else (pending, False, workers)
+    while queue and len(in_flight) < limit:
+        unit = queue.popleft()
+        try:
+            in_flight[pool.submit(work, unit)] = (unit, alone)
+        except BrokenProcessPool:
+            queue.appendleft(unit)
+            return False
+    return True
 
 
 def _collect(future, unit: dict, alone: bool, suspects: deque, on_result: OnResult) -> bool:

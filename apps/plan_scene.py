@@ -1,17 +1,23 @@
 #!/usr/bin/env python3
-"""The main job: plan a scene with both planners, evaluate both in Bullet, show the plans.
+"""The main job: plan a scene, evaluate the plans in Bullet, replay them side by side in Meshcat.
 
     python apps/plan_scene.py                         # the default shipped scene, served live
     python apps/plan_scene.py --scene fig7_cascade    # a shipped scene by name, or a YAML file
     python apps/plan_scene.py --html out.html         # write a self-contained HTML file instead
+    python apps/plan_scene.py --planner baseline      # one planner only (baseline: seconds)
     python apps/plan_scene.py --angles 14 --iterations 30   # the paper's budget (slow)
 
 The baseline (Sec. IV) plans ``--angles`` approach angles; the physics planner (Sec. V) optimises
-every baseline candidate that came out usable; both are replayed in Bullet (Sec. III). A table
-prints, per angle, each planner's outcome and planning time; Meshcat then plays the best
-physics plan (else the best baseline plan; else shows the scene). Prints the Meshcat URL and
-serves until Ctrl-C unless --html or --no-browser is given. Bad input prints one line and
-exits 2.
+every baseline candidate that came out usable (``--planner both``, the default, shows both;
+``physics`` shows only its plans, still initialised by the baseline). Every plan is replayed in
+Bullet (Sec. III) with a recording. A table prints, per angle, each planner's outcome and
+planning time. Meshcat then replays the chosen angle, the plans of both planners side by side
+(physics on the right, baseline on the left; the boxes move as Bullet moved them, tipped boxes
+orange, fallen red, contact forces as yellow arrows; drake_clutter/replay.py): the angle with
+the best physics outcome among those both planners made a plan for (ties: the better baseline
+outcome, then the first). Cost curves of the physics plans (each term per iLQR iteration) go
+to PNG files. Prints the Meshcat URL and serves until Ctrl-C unless --html or --no-browser is
+given. Bad input prints one line and exits 2.
 """
 
 from __future__ import annotations
@@ -19,6 +25,8 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+import time
+from pathlib import Path
 
 import numpy as np
 
@@ -31,6 +39,7 @@ from drake_clutter.typed_yaml import InputError
 # Best first: the order in which an outcome is preferred for the Meshcat replay.
 _RANK = ("success", "partial_success", "failure_to_grasp", "objects_falling",
          "kinematic_failure", "planner_failure")
+PLANNERS = ("baseline", "physics", "both")
 
 
 def with_iterations(config, iterations: int):
@@ -43,68 +52,106 @@ def with_iterations(config, iterations: int):
     return dataclasses.replace(config, physics=physics)
 
 
-def plan_and_evaluate(scene, config, angles: int):
-    """(baseline candidates, physics candidates, their Bullet outcomes) for ``angles``
-    approach angles."""
+def plan_and_evaluate(scene, config, angles: int, planner: str = "both") -> dict:
+    """{planner: (candidates, Bullet outcomes with recordings)} for ``angles`` approach angles,
+    in the order shown (physics first)."""
     from drake_clutter.baseline import plan_baseline
     from drake_clutter.evaluation import evaluate_candidates
     from drake_clutter.physics import plan_physics
 
-    baseline_config = dataclasses.replace(config.baseline, num_angles=angles)
-    baseline = plan_baseline(scene, baseline_config)
-    physics = plan_physics(scene, config, baseline)
-    return (baseline, physics, evaluate_candidates(scene, baseline, config.evaluation),
-            evaluate_candidates(scene, physics, config.evaluation))
+    baseline = plan_baseline(scene, dataclasses.replace(config.baseline, num_angles=angles))
+    plans = {}
+    if planner in ("physics", "both"):
+        plans["physics"] = plan_physics(scene, config, baseline)
+    if planner in ("baseline", "both"):
+        plans["baseline"] = baseline
+    return {name: (candidates, evaluate_candidates(scene, candidates, config.evaluation,
+                                                   record_fps=config.viz.fps))
+            for name, candidates in plans.items()}
 
 
-def side_by_side(baseline, physics, base_out, phys_out) -> str:
-    """One row per angle: each planner's outcome kind and planning time (s)."""
-    rows = [f"{'alpha':>7}  {'baseline':18} {'s':>6}  {'physics':18} {'s':>6}  stages (s)"]
-    for b, p, bo, po in zip(baseline, physics, base_out, phys_out, strict=True):
-        stages = " ".join(f"{k}={v:.1f}" for k, v in p.timings.items())
-        rows.append(f"{b.alpha:+7.3f}  {bo.kind:18} {sum(b.timings.values()):6.1f}  "
-                    f"{po.kind:18} {sum(p.timings.values()):6.1f}  {stages}")
+def outcome_table(plans: dict) -> str:
+    """One row per angle: each planner's outcome kind and planning time (s), and the physics
+    planner's seconds per stage."""
+    names = list(plans)
+    header = f"{'alpha':>7}  " + "  ".join(f"{n:18} {'s':>6}" for n in names)
+    rows = [header + ("  stages (s)" if "physics" in plans else "")]
+    for i, first in enumerate(plans[names[0]][0]):
+        cells = []
+        for name in names:
+            candidate, outcome = plans[name][0][i], plans[name][1][i]
+            cells.append(f"{outcome.kind:18} {sum(candidate.timings.values()):6.1f}")
+        stages = ""
+        if "physics" in plans:
+            stages = "  " + " ".join(f"{k}={v:.1f}" for k, v in
+                                     plans["physics"][0][i].timings.items())
+        rows.append(f"{first.alpha:+7.3f}  " + "  ".join(cells) + stages)
     return "\n".join(rows)
 
 
-def best(candidates, outcomes):
-    """The candidate with the best outcome (ties: the first), or None if none is usable."""
-    usable = [(c, o) for c, o in zip(candidates, outcomes, strict=True) if c.ok]
-    if not usable:
+def choose_angle(plans: dict) -> tuple[int, list[str]] | None:
+    """(angle index, planners with a usable plan there) to replay: among the angles where every
+    planner made a plan, the best outcome of the first planner shown, ties broken by the next
+    ones, then the first angle; else the best angle of any single planner; None when no plan
+    is usable."""
+    names = list(plans)
+    count = len(plans[names[0]][0])
+
+    def rank(i, among):
+        return tuple(_RANK.index(plans[n][1][i].kind) for n in among) + (i,)
+
+    usable = {i: [n for n in names if plans[n][0][i].ok] for i in range(count)}
+    full = [i for i in range(count) if len(usable[i]) == len(names)]
+    if full:
+        best = min(full, key=lambda i: rank(i, names))
+        return best, names
+    partial = [(rank(i, usable[i]), i) for i in range(count) if usable[i]]
+    if not partial:
         return None
-    return min(usable, key=lambda co: _RANK.index(co[1].kind))[0]
+    best = min(partial)[1]
+    return best, usable[best]
 
 
-def play(scene, config, candidate, variant: str, html: str | None, wait: bool) -> None:
-    """Records the arm following ``candidate``'s knots (boxes where the scene puts them) in
-    Meshcat, then writes ``html`` or serves (until Ctrl-C when ``wait``)."""
+def write_cost_curves(plans: dict, directory: Path, stem: str) -> list[Path]:
+    """A PNG of cost curves per physics plan with an iLQR history:
+    ``<directory>/<stem>_costs_physics_<alpha>.png``."""
+    from drake_clutter.cost_curves import plot_cost_curves
+
+    written = []
+    for candidate in plans.get("physics", ([], []))[0]:
+        path = directory / f"{stem}_costs_{candidate.planner}_{candidate.alpha:+.3f}.png"
+        if plot_cost_curves(candidate, path) is not None:
+            written.append(path)
+    return written
+
+
+def replay(scene, config, plans: dict, choice, variant: str, html: str | None,
+           wait: bool) -> None:
+    """Replays the chosen angle's plans side by side in Meshcat (or shows the scene when no
+    plan is usable), then writes ``html`` or serves (until Ctrl-C when ``wait``)."""
     from pydrake.geometry import Meshcat
 
-    from drake_clutter.trajectory import robot_positions
-    from drake_clutter.viz import look_at_shelf, write_static_html
-    from drake_clutter.world import build_planning_world
+    from drake_clutter.replay import PlanView, record_replay
+    from drake_clutter.viz import show_scene, write_static_html
 
+    if choice is None:
+        print("no usable plan: showing the scene")
+        show_scene(scene, config, variant=variant, html=html, wait=wait)
+        return
+    index, names = choice
+    views = [PlanView(n, plans[n][0][index], plans[n][1][index]) for n in names]
     meshcat = Meshcat()
-    world = build_planning_world(scene, variant, config.world, meshcat=meshcat)
-    context = world.diagram.CreateDefaultContext()
-    plant_context = world.plant.GetMyMutableContextFromRoot(context)
-    look_at_shelf(meshcat, scene)
-    recording = world.diagram  # the visualiser lives in the diagram
-    meshcat.StartRecording(set_visualizations_while_recording=False)
-    for t, q in zip(candidate.trajectory.times, candidate.trajectory.q, strict=True):
-        context.SetTime(float(t))
-        world.set_robot_positions(plant_context, robot_positions(q))
-        recording.ForcedPublish(context)
-    meshcat.StopRecording()
-    meshcat.PublishRecording()
+    summary = record_replay(scene, views, config, meshcat, variant)
+    sides = ("right", "left") if len(views) == 2 else tuple(f"copy {i}" for i in range(len(views)))
+    print(f"replay of alpha = {views[0].candidate.alpha:+.3f} ({summary.duration:.1f} s): " +
+          ", ".join(f"{v.label} ({v.outcome.kind}) {side} at {p}"
+                    for v, side, p in zip(views, sides, summary.paths, strict=True)))
     if html:
         print(f"wrote {write_static_html(meshcat, html)}")
         return
-    print(f"Meshcat: {meshcat.web_url()} ({candidate.planner} plan, alpha = "
-          f"{candidate.alpha:+.3f})")
+    print(f"Meshcat: {meshcat.web_url()}", flush=True)
     if wait:
-        import time
-        print("serving; Ctrl-C to stop")
+        print("serving; Ctrl-C to stop", flush=True)
         try:
             while True:
                 time.sleep(1.0)
@@ -112,12 +159,19 @@ def play(scene, config, candidate, variant: str, html: str | None, wait: bool) -
             pass
 
 
-def main(argv=None) -> int:
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default=DEFAULT_SCENE,
                         help=f"shipped scene name or YAML file (default: {DEFAULT_SCENE})")
-    parser.add_argument("--html", help="write a self-contained HTML file instead of serving")
-    parser.add_argument("--variant", choices=VARIANTS, default="capsules")
+    parser.add_argument("--planner", choices=PLANNERS, default="both",
+                        help="which plans to make and show (default: both)")
+    parser.add_argument("--html", help="write a self-contained HTML file instead of serving "
+                        "(cost curves go next to it)")
+    parser.add_argument("--costs", metavar="DIR",
+                        help="directory for the cost-curve PNGs (default: that of --html; "
+                        "none are written when serving without --costs)")
+    parser.add_argument("--variant", choices=VARIANTS, default="capsules",
+                        help="arm geometry drawn in Meshcat (default: capsules)")
     parser.add_argument("--no-browser", action="store_true",
                         help="publish once and exit instead of serving until interrupted")
     parser.add_argument("--angles", type=int, default=2,
@@ -128,26 +182,38 @@ def main(argv=None) -> int:
     parser.add_argument("--config", help="YAML configuration overrides")
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="KEY=VALUE")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _check(args) -> None:
+    if args.angles < 1:
+        raise InputError("<command line>", "--angles", f"must be at least 1, got {args.angles}")
+    if args.iterations < 0:
+        raise InputError("<command line>", "--iterations",
+                         f"must be at least 0, got {args.iterations}")
+    for flag, value in (("--html", args.html), ("--costs", args.costs)):
+        if value is None:
+            continue
+        folder = Path(value) if flag == "--costs" else Path(value).parent
+        if not folder.is_dir():
+            raise InputError(value, flag, f"no such directory: {folder}")
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
     try:
-        if args.angles < 1:
-            raise InputError("<command line>", "--angles", f"must be at least 1, got {args.angles}")
-        if args.iterations < 0:
-            raise InputError("<command line>", "--iterations",
-                             f"must be at least 0, got {args.iterations}")
+        _check(args)
         config = with_iterations(load_config(args.config, args.overrides), args.iterations)
         scene = resolve_scene(args.scene)
-        baseline, physics, base_out, phys_out = plan_and_evaluate(scene, config, args.angles)
-        print(side_by_side(baseline, physics, base_out, phys_out))
-        chosen = best(physics, phys_out) or best(baseline, base_out)
-        wait = not args.html and not args.no_browser
-        if chosen is None:
-            from drake_clutter.viz import show_scene
-
-            print("no usable plan: showing the scene")
-            show_scene(scene, config, variant=args.variant, html=args.html, wait=wait)
-        else:
-            play(scene, config, chosen, args.variant, args.html, wait)
+        plans = plan_and_evaluate(scene, config, args.angles, args.planner)
+        print(outcome_table(plans))
+        costs = args.costs or (str(Path(args.html).parent) if args.html else None)
+        if costs is not None:
+            stem = Path(args.html).stem if args.html else scene.name
+            for path in write_cost_curves(plans, Path(costs), stem):
+                print(f"wrote {path}")
+        replay(scene, config, plans, choose_angle(plans), args.variant, args.html,
+               wait=not args.html and not args.no_browser)
     except InputError as exc:
         print(f"plan_scene: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -273,6 +273,30 @@ class PhysicsConfig:
 
 
 @dataclass(frozen=True)
+class VizConfig:
+    """Meshcat replays of plans (replay.py; issue 8): all ours."""
+
+    fps: float = 30.0  # frames per second of simulated time in the Bullet recording and the
+    # animation: smooth, and the evaluation's 60 Hz monitor updates fall on every other frame
+    copy_margin: float = 0.3  # m between the shelves of two side-by-side copies of a scene
+    camera_offset: tuple[float, float, float] = (1.0, 0.0, 0.85)  # m, camera from the shelf's
+    # top centre for one copy: above and beyond the shelf looking back at the robot (from
+    # behind the robot the arm hides the boxes)
+    camera_spread: float = 0.6  # x camera_offset added per further copy, to see all of them
+    force_scale: float = 0.01  # m of arrow per N of contact normal force (pushes of 1-20 N
+    # give 1-20 cm arrows)
+    min_force: float = 0.05  # N: smaller contact forces are not drawn (grazing touches)
+    max_arrows: int = 24  # arrows per copy and frame at most (the largest forces)
+    arrow_radius: float = 0.004  # m, shaft radius (the cone's base is twice as wide)
+    arrow_tip_length: float = 0.02  # m
+    arrow_rgba: tuple[float, float, float, float] = (1.0, 0.85, 0.0, 1.0)  # yellow: no box,
+    # shelf or arm has that colour
+    tipped_rgba: tuple[float, float, float, float] = (1.0, 0.5, 0.0, 1.0)  # orange
+    fallen_rgba: tuple[float, float, float, float] = (0.9, 0.05, 0.05, 1.0)  # red
+    highlight_padding: float = 0.002  # m the tipped/fallen overlay reaches past the box
+
+
+@dataclass(frozen=True)
 class Config:
     """All settings of drake_clutter, one section per module."""
 
@@ -282,6 +306,7 @@ class Config:
     evaluation: EvaluationConfig = field(default_factory=EvaluationConfig)
     dynamics: DynamicsConfig = field(default_factory=DynamicsConfig)
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
+    viz: VizConfig = field(default_factory=VizConfig)
 
 
 def config_to_data(config: Config) -> dict:

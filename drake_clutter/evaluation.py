@@ -61,6 +61,7 @@ from drake_clutter import bullet_world as bw
 from drake_clutter import robot_model
 from drake_clutter.config import EvaluationConfig
 from drake_clutter.lift_check import LiftResult, lift_check
+from drake_clutter.recording import Recorder, Recording
 from drake_clutter.scenes import Scene
 from drake_clutter.trajectory import (
     TRAJECTORY_JOINTS,
@@ -119,7 +120,9 @@ class Outcome:
     (sums over a sample's contact points), ``box_static`` (one box's sum from the shelf) and the
     windowed means the thresholds use (``arm_static_mean``, ``box_static_excess_mean``, i.e.
     beyond the box's weight); ``arm_static_penetration`` is in m. ``tracking_error`` is the
-    largest arm-joint lag (rad), ``finger_error`` the largest finger lag (m).
+    largest arm-joint lag (rad), ``finger_error`` the largest finger lag (m). ``recording``
+    holds the replay's frames when `evaluate` was asked for them (``record_fps``); it is left
+    out of ``to_data`` and of comparisons.
     """
 
     kind: str
@@ -134,6 +137,7 @@ class Outcome:
     settled: bool = False  # the boxes came to rest before the cap
     lift: LiftResult | None = None
     wall_time: float = 0.0  # s of computer time (not part of the physics)
+    recording: Recording | None = field(default=None, compare=False, repr=False)
 
     @property
     def grasped(self) -> bool:
@@ -358,15 +362,18 @@ class _Monitor:
 
 
 def _replay(world: bw.BulletWorld, trajectory: Trajectory, config: EvaluationConfig,
-            monitor: _Monitor) -> tuple[float, np.ndarray]:
+            monitor: _Monitor, recorder: Recorder | None = None) -> tuple[float, np.ndarray]:
     """Drives the arm along the plan (up-sampled to sim_dt); returns (simulated time, the last
-    planned MOTOR_ORDER positions). Stops early at a kinematic failure."""
+    planned MOTOR_ORDER positions). Stops early at a kinematic failure. ``recorder`` (if any)
+    takes its frames from the updates."""
     dt, every = config.sim_dt, config.monitor_interval
     num_steps = max(1, math.ceil(trajectory.duration / dt - 1e-9))
     marks = np.r_[np.arange(0, num_steps, every), num_steps]  # steps of the motor updates
     planned = trajectory.at(trajectory.times[0] + marks * dt)
     q_plan = bw.motor_positions(world, robot_positions(planned))
     bw.reset_robot(world, q_plan[0])
+    if recorder is not None:
+        recorder.sample(world, 0.0)
     forces = bw.motor_forces(config)
     for u in range(len(marks) - 1):
         span = (marks[u + 1] - marks[u]) * dt
@@ -375,6 +382,8 @@ def _replay(world: bw.BulletWorld, trajectory: Trajectory, config: EvaluationCon
         bw.command_velocities(world, (q_plan[u + 1] - q) / span, forces)
         bw.step(world, int(marks[u + 1] - marks[u]))
         monitor.contacts(world, marks[u + 1] * dt)
+        if recorder is not None:
+            recorder.sample(world, marks[u + 1] * dt)
         if monitor.failure:
             return float(marks[u + 1] * dt), q_plan[-1]
     monitor.track(bw.joint_positions(world), q_plan[-1], num_steps * dt)
@@ -382,7 +391,8 @@ def _replay(world: bw.BulletWorld, trajectory: Trajectory, config: EvaluationCon
 
 
 def _settle(world: bw.BulletWorld, q_hold: np.ndarray, config: EvaluationConfig,
-            monitor: _Monitor, t: float) -> tuple[float, bool]:
+            monitor: _Monitor, t: float, recorder: Recorder | None = None
+            ) -> tuple[float, bool]:
     """Holds the arm still until every box is at rest or the cap; returns (time, settled)."""
     dt, every = config.sim_dt, config.monitor_interval
     forces = bw.motor_forces(config)
@@ -394,6 +404,8 @@ def _settle(world: bw.BulletWorld, q_hold: np.ndarray, config: EvaluationConfig,
         bw.step(world, every)
         t += every * dt
         monitor.contacts(world, t)
+        if recorder is not None:
+            recorder.sample(world, t)
         if monitor.failure:
             return t, False
         speed, spin = bw.box_speeds(world)
@@ -448,10 +460,12 @@ def _unsimulated(scene: Scene, trajectory: Trajectory, reason: str) -> Outcome:
 
 
 def evaluate(scene: Scene, trajectory: Trajectory, config: EvaluationConfig | None = None,
-             lift: bool = False) -> Outcome:
+             lift: bool = False, record_fps: float | None = None) -> Outcome:
     """Replays ``trajectory`` in a fresh Bullet world of ``scene`` and classifies the result
     (Sec. III; see the module docstring). With ``lift``, the grasp-and-lift check runs after
     the classification (not after a kinematic failure) and is recorded in ``Outcome.lift``.
+    With ``record_fps``, ``Outcome.recording`` holds the replay's frames at that rate (see
+    `recording`; reading only, the outcome is the same).
 
     Deterministic: the same scene, trajectory and configuration give the same Outcome (but for
     ``wall_time``). Raises ValueError for a trajectory over other joints than TRAJECTORY_JOINTS.
@@ -466,19 +480,22 @@ def evaluate(scene: Scene, trajectory: Trajectory, config: EvaluationConfig | No
     with bw.build_bullet_world(scene, config) as world:
         p_start, _ = bw.box_poses(world)
         monitor = _Monitor(world, config)
-        t, q_hold = _replay(world, trajectory, config, monitor)
+        recorder = None if record_fps is None else Recorder(record_fps)
+        t, q_hold = _replay(world, trajectory, config, monitor, recorder)
         settled = False
         if not monitor.failure:
-            t, settled = _settle(world, q_hold, config, monitor, t)
+            t, settled = _settle(world, q_hold, config, monitor, t, recorder)
         p_end, R_end = bw.box_poses(world)
         boxes = _box_outcomes(scene, p_start, p_end, R_end, config)
         grasp = grasp_check(world, config)
         tipped = [b.name for b in boxes if b.tipped and b.name != scene.target]
         kind, reason = classify(monitor.failure, [b.name for b in boxes if b.fallen],
                                 grasp.reason, tipped)
+        recording = None if recorder is None else recorder.finish(world, t)
         lifted = lift_check(world, q_hold, config) if lift and not monitor.failure else None
     outcome = Outcome(kind, reason, boxes, grasp, monitor.forces, monitor.tracking_error,
-                      monitor.finger_error, t, trajectory.duration, settled, lifted)
+                      monitor.finger_error, t, trajectory.duration, settled, lifted,
+                      recording=recording)
     return _with_wall_time(outcome, started)
 
 
@@ -491,13 +508,14 @@ def _with_wall_time(outcome: Outcome, started: float) -> Outcome:
 
 def evaluate_candidates(scene: Scene, candidates: Sequence[Candidate],
                         config: EvaluationConfig | None = None,
-                        lift: bool = False) -> list[Outcome]:
+                        lift: bool = False, record_fps: float | None = None) -> list[Outcome]:
     """One Outcome per candidate (same order); a candidate without a usable trajectory gets
-    kind ``planner_failure`` with the planner's status and reason."""
+    kind ``planner_failure`` with the planner's status and reason. ``record_fps``: as in
+    `evaluate`."""
     outcomes = []
     for candidate in candidates:
         if candidate.ok:
-            outcomes.append(evaluate(scene, candidate.trajectory, config, lift))
+            outcomes.append(evaluate(scene, candidate.trajectory, config, lift, record_fps))
         else:
             why = candidate.status + (f": {candidate.reason}" if candidate.reason else "")
             outcomes.append(Outcome("planner_failure", why))

@@ -1,0 +1,141 @@
+"""The exported replay HTML in a real browser: headless Chromium renders it, and the screenshot
+must show the shelf, the boxes and the arm (checked against a screenshot of an empty Meshcat
+page with the same camera, which must fail the same check).
+
+Chromium is Debian's ``chromium`` package (.ci/run installs it when missing); nothing is
+downloaded at run time. Without it the tests fail under CI (``CI=true``) and skip elsewhere.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.colors import rgb_to_hsv
+from matplotlib.image import imread
+from pydrake.geometry import Meshcat
+
+from drake_clutter.baseline import plan_baseline
+from drake_clutter.config import Config
+from drake_clutter.evaluation import evaluate
+from drake_clutter.replay import PlanView, look_at_copies, record_replay
+from drake_clutter.scenes import DEFAULT_SCENE, load_shipped_scene
+from drake_clutter.viz import write_static_html
+
+REPO = Path(__file__).resolve().parents[1]
+WINDOW = (800, 600)  # px; software WebGL: rendering cost grows with the area
+BUDGET_MS = 2000  # virtual time for loading and drawing the page (measured: enough)
+MIN_SHARE = 0.002  # of the window's pixels per part (about 1000 pixels): a part in view
+
+
+def _chromium() -> str:
+    path = shutil.which("chromium")
+    if path is None:
+        message = "Debian's chromium is not installed (apt-get install chromium)"
+        if os.environ.get("CI") == "true":
+            pytest.fail(message + "; .ci/run installs it")
+        pytest.skip(message)
+    return path
+
+
+def screenshot(html: Path, png: Path) -> np.ndarray:
+    """RGB image (H, W, 3) in [0, 1] of ``html`` rendered by headless Chromium."""
+    with tempfile.TemporaryDirectory() as profile:
+        result = subprocess.run(
+            [_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+             "--no-first-run", "--disable-background-networking", "--disable-component-update",
+             "--disable-sync", f"--user-data-dir={profile}",
+             f"--window-size={WINDOW[0]},{WINDOW[1]}", f"--virtual-time-budget={BUDGET_MS}",
+             f"--screenshot={png}", html.resolve().as_uri()],
+            capture_output=True, text=True, timeout=180)
+    assert png.exists(), f"chromium wrote no screenshot (exit {result.returncode}):\n" \
+                         f"{result.stderr[-2000:]}"
+    return imread(png)[..., :3]
+
+
+def drawn_parts(image: np.ndarray, blank: np.ndarray) -> dict[str, float]:
+    """Share of the window's pixels, among those that differ from the empty page, that look
+    like each part: the shelf's board (tan: hue 20-45 deg), the boxes (magenta obstacles, hue
+    280-320 deg, or the green target, hue 100-140 deg; saturated) and the arm (light grey: hardly
+    any saturation, bright; the robot's base is dark grey)."""
+    changed = np.abs(image - blank).max(axis=-1) > 0.08
+    hsv = rgb_to_hsv(np.clip(image, 0.0, 1.0))
+    hue, sat, val = hsv[..., 0] * 360, hsv[..., 1], hsv[..., 2]
+    parts = {
+        "shelf": (hue > 20) & (hue < 45) & (sat > 0.15) & (sat < 0.6) & (val > 0.45),
+        "boxes": (((hue > 280) & (hue < 320)) | ((hue > 100) & (hue < 140))) & (sat > 0.45),
+        "arm": (sat < 0.08) & (val > 0.6),
+    }
+    return {name: float((mask & changed).mean()) for name, mask in parts.items()}
+
+
+def assert_scene_drawn(image: np.ndarray, blank: np.ndarray) -> None:
+    """Fails unless the shelf, the boxes and the arm each cover MIN_SHARE of the window."""
+    shares = drawn_parts(image, blank)
+    missing = {k: v for k, v in shares.items() if v < MIN_SHARE}
+    assert not missing, f"not drawn (share of pixels below {MIN_SHARE}): {missing}; " \
+                        f"all: {shares}"
+
+
+def _blank_page(directory: Path, copies: int) -> np.ndarray:
+    """Screenshot of an empty Meshcat page with the replay's camera."""
+    meshcat = Meshcat()
+    look_at_copies(meshcat, load_shipped_scene(DEFAULT_SCENE), copies, Config())
+    html = write_static_html(meshcat, directory / "empty.html")
+    return screenshot(html, directory / "empty.png")
+
+
+@pytest.fixture(scope="module")
+def replay_html(tmp_path_factory):
+    """The replay of the default scene's first usable baseline plan, with its recording, as
+    static HTML (a real plan: baseline, 2 approach angles)."""
+    _chromium()
+    directory = tmp_path_factory.mktemp("browser")
+    config = Config()
+    scene = load_shipped_scene(DEFAULT_SCENE)
+    candidates = plan_baseline(scene, replace(config.baseline, num_angles=2))
+    candidate = next(c for c in candidates if c.ok)
+    outcome = evaluate(scene, candidate.trajectory, config.evaluation,
+                       record_fps=config.viz.fps)
+    meshcat = Meshcat()
+    record_replay(scene, [PlanView("baseline", candidate, outcome)], config, meshcat)
+    return write_static_html(meshcat, directory / "replay.html"), directory
+
+
+def test_exported_replay_shows_shelf_boxes_and_arm(replay_html):
+    html, directory = replay_html
+    image = screenshot(html, directory / "replay.png")
+    blank = _blank_page(directory, copies=1)
+    assert image.shape == blank.shape == (WINDOW[1], WINDOW[0], 3)
+    assert_scene_drawn(image, blank)
+    # the check can fail: an empty Meshcat page (grid, background, controls) does not pass it
+    with pytest.raises(AssertionError, match="not drawn"):
+        assert_scene_drawn(blank, blank)
+    with pytest.raises(AssertionError, match="not drawn"):
+        assert_scene_drawn(blank, image)  # the page without the scene, against the scene
+
+
+@pytest.mark.slow
+def test_plan_scene_app_html_renders_side_by_side(tmp_path):
+    """The main job's output (both planners), rendered: two copies of the scene drawn."""
+    _chromium()
+    out = tmp_path / "main.html"
+    result = subprocess.run([sys.executable, "apps/plan_scene.py", "--html", str(out)],
+                            cwd=REPO, capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, result.stderr
+    copies = 2 if "illustration_baseline" in result.stdout else 1
+    image = screenshot(out, tmp_path / "main.png")
+    blank = _blank_page(tmp_path, copies)
+    assert_scene_drawn(image, blank)
+    # Two copies: the scene appears in both halves of the window.
+    if copies == 2:
+        left, right = image[:, :WINDOW[0] // 2], image[:, WINDOW[0] // 2:]
+        assert_scene_drawn(left, blank[:, :WINDOW[0] // 2])
+        assert_scene_drawn(right, blank[:, WINDOW[0] // 2:])

@@ -1,0 +1,157 @@
+"""Cost curves of physics plans (cost_curves.py) and apps/plan_scene.py's replay output,
+serving and errors (the replay itself: test_replay.py; in a browser: test_browser.py)."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.image import imread
+
+from drake_clutter.cost_curves import plot_cost_curves, stage_curves
+from drake_clutter.scenes import DEFAULT_SCENE, load_shipped_scene
+from drake_clutter.trajectory import Candidate
+from drake_clutter.viz import static_html_paths
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _stage(totals_terms, stop="converged"):
+    """A stage record as physics._stage_record writes it, from per-iteration term dicts."""
+    return {"iterations": len(totals_terms) - 1, "stop_reason": stop, "seconds": 1.0,
+            "cost_history": [sum(t.values()) for t in totals_terms],
+            "term_history": totals_terms, "timings": {}}
+
+
+def _physics_candidate():
+    pre = [{"c_static_hull": 10.0 / (i + 1), "c_vel": 0.5 + 0.01 * i, "c_dynamic": 0.0}
+           for i in range(5)]
+    full = [{"c_force": 1e4 * 0.1 ** i, "c_grasp": 2.0 - 0.2 * i} for i in range(4)]
+    post = [{"c_static": 1.0, "c_match": 0.1 * i} for i in range(3)]
+    details = {"stages": {"post": _stage(post), "pre": _stage(pre),
+                          "full": _stage(full, "regularisation limit")}}
+    return Candidate(0.25, "ok", planner="physics", details=details)
+
+
+def test_stage_curves_read_the_physics_details_in_pipeline_order():
+    curves = stage_curves(_physics_candidate())
+    assert [c.stage for c in curves] == ["pre", "full", "post"]
+    pre = curves[0]
+    np.testing.assert_array_equal(pre.iterations, np.arange(5))
+    assert set(pre.terms) == {"c_static_hull", "c_vel", "c_dynamic"}
+    np.testing.assert_allclose(pre.terms["c_static_hull"], 10.0 / np.arange(1, 6))
+    np.testing.assert_allclose(pre.total, sum(pre.terms.values()))
+    assert curves[1].stop_reason == "regularisation limit"
+
+
+def test_no_curves_for_a_baseline_plan(tmp_path):
+    baseline = Candidate(0.0, "ok", planner="baseline")
+    assert stage_curves(baseline) == []
+    assert plot_cost_curves(baseline, tmp_path / "none.png") is None
+    assert not (tmp_path / "none.png").exists()
+
+
+def test_malformed_history_is_a_clear_error():
+    candidate = _physics_candidate()
+    candidate.details["stages"]["pre"]["term_history"].pop()
+    with pytest.raises(ValueError, match="stage pre: 4 term records for 5 costs"):
+        stage_curves(candidate)
+    candidate = _physics_candidate()
+    del candidate.details["stages"]["full"]["term_history"][2]["c_grasp"]
+    with pytest.raises(ValueError, match="'c_grasp' missing"):
+        stage_curves(candidate)
+
+
+def test_cost_curve_png_has_one_panel_per_stage(tmp_path):
+    path = plot_cost_curves(_physics_candidate(), tmp_path / "costs.png")
+    assert path == tmp_path / "costs.png"
+    image = imread(path)
+    height, width = image.shape[:2]
+    assert (height, width) == (380, 3 * 420)
+    # Not blank: the curves in matplotlib's default colours (C0 blue, C1 orange) are drawn.
+    rgb = image[..., :3]
+    blue = np.all(np.abs(rgb - np.array([0x1f, 0x77, 0xb4]) / 255) < 0.05, axis=-1)
+    orange = np.all(np.abs(rgb - np.array([0xff, 0x7f, 0x0e]) / 255) < 0.05, axis=-1)
+    assert blue.sum() > 200 and orange.sum() > 200
+    # and each third of the image (a panel) has some of them
+    for third in np.array_split(blue | orange, 3, axis=1):
+        assert third.sum() > 50
+
+
+def test_unwritable_cost_curve_file_is_an_input_error(tmp_path):
+    from drake_clutter.typed_yaml import InputError
+
+    with pytest.raises(InputError, match="cannot write the cost curves"):
+        plot_cost_curves(_physics_candidate(), tmp_path / "missing" / "costs.png")
+
+
+# ----------------------------------------------------------------------------- apps/plan_scene.py
+
+
+def _app(*args, timeout=600):
+    return subprocess.run([sys.executable, "apps/plan_scene.py", *args], cwd=REPO,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def test_plan_scene_baseline_writes_the_replay_html(tmp_path):
+    out = tmp_path / "replay.html"
+    result = _app("--planner", "baseline", "--html", str(out))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].split()[:3] == ["alpha", "baseline", "s"]
+    assert len([ln for ln in lines if ln.strip().startswith(("+", "-"))]) == 2  # 2 angles
+    assert "replay of alpha" in result.stdout and f"wrote {out}" in result.stdout
+    paths = static_html_paths(out.read_text())
+    for box in load_shipped_scene(DEFAULT_SCENE).boxes:
+        assert f"/drake/illustration/boxes/{box.name}" in paths
+    assert not any(p.startswith("/drake/illustration_") for p in paths)  # one planner, one copy
+    assert not list(tmp_path.glob("*.png"))  # no iLQR, no cost curves
+
+
+def test_plan_scene_serves_and_prints_the_meshcat_url():
+    process = subprocess.Popen([sys.executable, "apps/plan_scene.py", "--planner", "baseline"],
+                               cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True)
+    try:
+        deadline = time.monotonic() + 300
+        url = ""
+        while not url and time.monotonic() < deadline:
+            line = process.stdout.readline()
+            if not line:
+                break
+            if line.startswith("Meshcat: http://"):
+                url = line.split()[1]
+        assert url, "no Meshcat URL printed"
+        assert "serving" in process.stdout.readline()
+        assert process.poll() is None  # still serving
+        with urllib.request.urlopen(url, timeout=30) as page:
+            assert page.status == 200 and b"meshcat" in page.read().lower()
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=60) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+@pytest.mark.parametrize("args, field", [
+    (["--angles", "0"], "--angles"),
+    (["--html", "/no/such/dir/x.html"], "--html"),
+    (["--costs", "/no/such/dir"], "--costs"),
+])
+def test_plan_scene_bad_input_is_one_line_and_exit_2(args, field):
+    result = _app(*args, timeout=120)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1 and field in result.stderr
+    assert "Traceback" not in result.stderr
+
+
+def test_plan_scene_rejects_an_unknown_planner():
+    result = _app("--planner", "magic", timeout=120)
+    assert result.returncode == 2 and "invalid choice: 'magic'" in result.stderr

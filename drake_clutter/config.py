@@ -283,8 +283,8 @@ class VizConfig:
     # top centre for one copy: above and beyond the shelf looking back at the robot (from
     # behind the robot the arm hides the boxes)
     camera_spread: float = 0.6  # x camera_offset added per further copy, to see all of them
-    force_scale: float = 0.01  # m of arrow per N of contact normal force (pushes of 1-20 N
-    # give 1-20 cm arrows)
+    force_scale: float = 0.03  # m of arrow per N of contact normal force: the arm's pushes on
+    # the default scene peak at 2-5 N (3-15 cm arrows; at 0.01 they hid inside the boxes)
     min_force: float = 0.05  # N: smaller contact forces are not drawn (grazing touches)
     max_arrows: int = 24  # arrows per copy and frame at most (the largest forces)
     arrow_radius: float = 0.004  # m, shaft radius (the cone's base is twice as wide)

@@ -14,7 +14,7 @@ What moves (frames ``viz.fps`` per second, one timeline for all views):
 
 * with a recording (`recording.Recording`): the arm and the boxes as the evaluation in Bullet
   moved them, and the contact normal forces between the robot and the boxes as arrows (a yellow
-  shaft and cone from the contact point on the box along the force on the box, length
+  shaft and cone along the force on the box, its tip at the contact point on the box, length
   ``viz.force_scale`` m per N, at most ``viz.max_arrows`` per frame, the largest);
 * without one (not evaluated, or rejected before simulating): the arm along the plan's knots
   (linear between them), the boxes where the scene puts them.
@@ -234,8 +234,9 @@ def _add_arrows(copy: _Copy, meshcat: Meshcat, animation: MeshcatAnimation,
         for k in np.flatnonzero(shown):
             p, n, force = frames[k][j, :3], frames[k][j, 3:6], frames[k][j, 6]
             length = max(force * viz.force_scale, 1e-4)
+            # The arrow ends at the contact point: drawn from it, it would hide in the box.
             animation.SetTransform(int(k), path, RigidTransform(
-                RotationMatrix.MakeFromOneVector(n, 2), p))
+                RotationMatrix.MakeFromOneVector(n, 2), p - length * n))
             animation.SetProperty(int(k), f"{path}/shaft", "scale", [1.0, 1.0, length])
             animation.SetTransform(int(k), f"{path}/tip", RigidTransform([0.0, 0.0, length]))
     return slots
@@ -282,6 +283,9 @@ def record_replay(scene: Scene, views: Sequence[PlanView], config: Config, meshc
     animation = meshcat.get_mutable_recording()
     highlighted = tuple(_add_highlights(c, meshcat, animation, config) for c in copies)
     slots = tuple(_add_arrows(c, meshcat, animation, config) for c in copies)
+    # Played once, it stays at the last frame (the state the outcome was classified on)
+    # instead of snapping back to the scene as first published.
+    animation.set_clamp_when_finished(True)
     meshcat.PublishRecording()
     look_at_copies(meshcat, scene, len(copies), config)
     return ReplaySummary(tuple(c.path for c in copies), tuple(c.num_frames for c in copies),

@@ -14,8 +14,9 @@ fields). It never raises for a planner or evaluation error: the error becomes a 
 ``planner_failure`` with the error text.
 
 A configuration is identified by `config_hash`, the hash of the whole resolved `Config`
-(not of the override strings): two spellings of the same settings share rows, and a change
-of a default in config.py gives new rows instead of silently mixing results.
+(not of the override strings; drawing settings left out): two spellings of the same settings
+share rows, and a change of a default in config.py gives new rows instead of silently
+mixing results.
 
 Single angles (ours): `baseline.plan_baseline` plans a scene's angles in a row and seeds each
 angle's IK with its neighbour's solution. A unit plans its angle alone, with the same
@@ -191,9 +192,14 @@ def resolve_config(spec: ExperimentSpec, name: str, file="<spec>") -> Config:
     return config
 
 
+UNHASHED_SECTIONS = ("viz",)  # configuration sections that cannot change a row (drawing)
+
+
 def config_hash(config: Config) -> str:
-    """16 hex digits of the SHA-256 of the resolved configuration's canonical JSON."""
-    text = json.dumps(config_to_data(config), sort_keys=True, separators=(",", ":"))
+    """16 hex digits of the SHA-256 of the resolved configuration's canonical JSON, without
+    the UNHASHED_SECTIONS (a change of colours must not make finished rows stale)."""
+    data = {k: v for k, v in config_to_data(config).items() if k not in UNHASHED_SECTIONS}
+    text = json.dumps(data, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 

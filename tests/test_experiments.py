@@ -81,6 +81,8 @@ def test_spec_units_and_hash(tmp_path):
     same = config_hash(load_config(None, ["dynamics.workers=0", "baseline.num_angles=14"]))
     other = config_hash(load_config(None, ["dynamics.workers=0", "baseline.num_angles=12"]))
     assert same == default != other
+    drawing = config_hash(load_config(None, ["dynamics.workers=0", "viz.fps=10"]))
+    assert drawing == default  # drawing settings cannot change a row
 
 
 @pytest.mark.parametrize("text,field,needle", [

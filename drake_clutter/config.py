@@ -90,13 +90,24 @@ class WorldConfig:
     """Drake worlds: the kinematic planning world and the smooth-contact dynamics phi (Sec. V)."""
 
     time_step: float = 0.01  # s, SAP step of phi; ours (ARCHITECTURE: 5.5 ms/step at 25 boxes)
-    hydroelastic_modulus: float = 1.0e6  # Pa, compliant boxes; ours (settles, ARCHITECTURE)
+    hydroelastic_modulus: float = 5.0e5  # Pa, phi's compliant boxes; ours: at 1e6 a 10-box
+    # reach diverged at 40 ms steps (phi's 5 sub-steps); 5e5 settles (6.8e-6 m/s) and keeps FD
+    # vs AutoDiffXd at median 2.4e-3 (measured)
     resolution_hint: float = 0.02  # m, compliant mesh resolution hint; ours
     hunt_crossley_dissipation: float = 5.0  # s/m; ours
     relaxation_time: float = 0.1  # s, SAP dissipation (Drake default); 0.05 let boxes creep 1 mm
     point_stiffness: float = 1.0e5  # N/m for point-contact fallback pairs; ours
     arm_kp: float = 4000.0  # N m/rad (N/m for fingers) PD stiffness: the arm is kinematic (Sec. I)
     arm_kd: float = 100.0  # N m s/rad PD damping; ours
+    near_rigid_threshold: float = 1.0  # SAP's near-rigid threshold beta (contacts stiffer
+    # than it allows saturate); Drake's default. Measured: 1e-3 made phi's Jacobians 10-100x
+    # larger in a push and finite differences worse
+    hydroelastic_margin: float = 0.002  # m, ("hydroelastic", "margin") of phi's compliant
+    # boxes: pairs this close enter SAP's problem before they touch, so contact starts without
+    # a jump (phi is continuous); ours (> one 40 ms step at 5 cm/s)
+    robot_hydroelastic: bool = True  # phi's arm as rigid hydroelastic geometry (else arm-box
+    # pairs fall back to point contact, which jumps); it then passes through the shelf: the
+    # arm is kinematic in Sec. V, and c_static keeps it clear; ours
     park_configuration: tuple[float, ...] = (-1.9, 0.2, 0.0, -1.9, 0.0, -0.6, 0.0)  # rad; ours
     park_gripper_opening: float = 0.09  # m; ours
 
@@ -200,13 +211,18 @@ class DynamicsConfig:
     workers: int = 2  # parallel derivative workers (Sec. V: "in parallel"); ours: 2 cores
     # (0 = serial, in the calling process)
     # phi's simulation (all ours; measurements in the README's phi section).
-    substeps: int = 20  # SAP steps per knot: 0.2 s knots / 20 = 0.01 s; hydroelastic boxes
-    # blew up at 0.015-0.02 s, point-contact ones fell through the board at 0.05 s, and a push
-    # at 0.02 s ended 2.9 cm from a 5 ms reference (1.4 cm at 0.01 s)
-    contact_model: Literal["point", "spheres", "hydroelastic"] = "point"  # boxes in phi:
-    # "point" = corner spheres on the shelf + Box shapes against arm and boxes (3-4x cheaper
-    # than hydroelastic, boxes settle to 1e-9 m/s); "spheres" = corner spheres only (AutoDiffXd
-    # can step it: the validation variant); "hydroelastic" = world.py's compliant boxes
+    substeps: int = 5  # SAP steps per knot (0.2 s knots / 5 = 40 ms). Measured with the
+    # hydroelastic boxes and their 2 mm margin (10 boxes, a 14-knot push; README): FD vs
+    # AutoDiffXd whole-Jacobian error median 3e-3 at 5 sub-steps, 2.6e-2 at 10 (bigger steps
+    # damp more: smoother); 2 sub-steps (0.1 s) agree to 1.4e-3 but resting boxes jitter at
+    # 0.14 m/s; 4 and 5 settle
+    contact_model: Literal["point", "spheres", "hydroelastic"] = "hydroelastic"  # boxes in
+    # phi: "hydroelastic" = compliant boxes with world.hydroelastic_margin against the rigid
+    # hydroelastic arm and shelf: phi is continuous (measured: point contact jumps by up to 0.3
+    # m/s when a perturbation of 1e-7 m decides whether a pair touches at a sub-step's start,
+    # since SAP only sees touching point pairs; the margin puts near pairs in its problem
+    # first); "point" = corner spheres on the shelf + Box shapes (cheaper per step, but finite
+    # differences straddle those jumps at most pushing knots); "spheres" = corner spheres only
     corner_sphere_radius: float = 0.004  # m, spheres inside the box corners; ours (small:
     # the box rests on its real footprint)
     interaction_margin: float = 1e-3  # m: bodies closer than this at a sub-step's start may
@@ -226,6 +242,9 @@ class DynamicsConfig:
     # lift them back; box speeds fall to 2e-7 m/s at 2 s and 2e-9 m/s at 3 s
     step_cache_size: int = 512  # traced steps remembered for linearize (2 iLQR horizons of
     # line search); ours
+    divergence_limit: float = 1.0e6  # |number| in a box state (m, m/s, rad/s) beyond which
+    # a step counts as diverged (NaN, a failure); ours: a diverged SAP step overflowed the
+    # quaternion's norm to a zero quaternion that Drake then aborted on (measured)
 
 
 @dataclass(frozen=True)

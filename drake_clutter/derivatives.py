@@ -58,6 +58,12 @@ def node_rows(layout: StateLayout, node: int) -> np.ndarray:
     return np.arange(ARM_DIM + BOX_TANGENT * (node - 1), ARM_DIM + BOX_TANGENT * node)
 
 
+def node_output_rows(layout: StateLayout, node: int) -> np.ndarray:
+    """Rows of an interaction node in phi's output [dx' (ndx), f (1 + n)]: its tangent rows
+    and its contact-force entry (`dynamics.Phi.contact_forces`)."""
+    return np.append(node_rows(layout, node), layout.ndx + node)
+
+
 def components(num_nodes: int, edges) -> list[list[int]]:
     """Connected components (sorted node lists) of the interaction graph over the arm and
     the kept boxes (edges to frozen boxes, negative nodes, are static contacts: ignored)."""
@@ -86,34 +92,39 @@ def perturbed(layout: StateLayout, x, u, columns, step: float):
     return layout.retract(x, dx[:layout.ndx]), np.asarray(u, dtype=float) + dx[layout.ndx:]
 
 
-def group_differences(phi: Phi, x, u, x_next, groups, step: float, scheme: str) -> np.ndarray:
-    """Difference quotients (len(groups), ndx) of phi for each group of columns perturbed
-    together: forward (phi(x + h e) (-) phi(x)) / h or central (phi(x + h e) (-) phi(x - h e))
-    / 2h. A failed evaluation gives a row of NaN."""
+def group_differences(phi: Phi, x, u, nominal, groups, step: float, scheme: str) -> np.ndarray:
+    """Difference quotients (len(groups), ndx + 1 + n) of phi's output [x' (tangent), contact
+    forces f] for each group of columns perturbed together: forward (phi(x + h e) (-)
+    phi(x)) / h about ``nominal`` = (x', f) or central (phi(x + h e) (-) phi(x - h e)) / 2h.
+    A failed evaluation gives a row of NaN."""
     layout = phi.layout
-    out = np.empty((len(groups), layout.ndx))
+    out = np.empty((len(groups), layout.ndx + phi.num_forces))
     for g, cols in enumerate(groups):
-        xp, up = perturbed(layout, x, u, cols, step)
-        plus = phi.step(xp, up)
+        x_plus, f_plus = phi.step_forces(*perturbed(layout, x, u, cols, step))
         if scheme == "central":
-            xm, um = perturbed(layout, x, u, cols, -step)
-            out[g] = layout.difference(plus, phi.step(xm, um)) / (2 * step)
+            x_minus, f_minus = phi.step_forces(*perturbed(layout, x, u, cols, -step))
+            width = 2 * step
         else:
-            out[g] = layout.difference(plus, x_next) / step
+            (x_minus, f_minus), width = nominal, step
+        out[g] = np.concatenate([layout.difference(x_plus, x_minus), f_plus - f_minus]) / width
     return out
 
 
-def dense_jacobians(phi: Phi, x, u, step: float | None = None, scheme: str | None = None):
+def dense_jacobians(phi: Phi, x, u, step: float | None = None, scheme: str | None = None,
+                    forces: bool = False):
     """Brute force: every column perturbed alone; (A (ndx, ndx), B (ndx, nu)) in tangent
-    coordinates, ndx + nu + 1 phi evaluations (2 (ndx + nu) central). Step and scheme default
-    to phi's configuration."""
+    coordinates, and with ``forces`` also the contact forces' (Fx (1 + n, ndx), Fu (1 + n,
+    nu)); ndx + nu + 1 phi evaluations (2 (ndx + nu) central). Step and scheme default to
+    phi's configuration."""
     layout = phi.layout
     step = phi.spec.config.fd_step if step is None else step
     scheme = phi.spec.config.fd_scheme if scheme is None else scheme
-    x_next = phi.step(x, u) if scheme == "forward" else None
+    nominal = phi.step_forces(x, u) if scheme == "forward" else None
     cols = [[c] for c in range(layout.ndx + NU)]
-    D = group_differences(phi, x, u, x_next, cols, step, scheme).T
-    return D[:, :layout.ndx], D[:, layout.ndx:]
+    D = group_differences(phi, x, u, nominal, cols, step, scheme).T
+    ndx = layout.ndx
+    jacobians = (D[:ndx, :ndx], D[:ndx, ndx:])
+    return jacobians + (D[ndx:, :ndx], D[ndx:, ndx:]) if forces else jacobians
 
 
 # ----------------------------------------------------------------------------- workers
@@ -133,12 +144,12 @@ def _worker_phi(key: str, spec: PhiSpec) -> Phi:
 
 
 def _run_task(task):
-    """Worker entry point: ('trace', key, spec, x, u) or ('groups', key, spec, x, u, x_next,
+    """Worker entry point: ('trace', key, spec, x, u) or ('groups', key, spec, x, u, nominal,
     groups, step, scheme)."""
     kind, key, spec, *args = task
     phi = _worker_phi(key, spec)
     if kind == "trace":
-        return phi.step_traced(*args)
+        return phi.step_full(*args)
     return group_differences(phi, *args)
 
 
@@ -214,7 +225,7 @@ class _KnotWork:
     t: int
     x: np.ndarray
     u: np.ndarray
-    x_next: np.ndarray
+    nominal: tuple[np.ndarray, np.ndarray]  # phi's (x', f) at (x, u)
     fd_components: list[list[int]]
     groups: list[list[int]]
     known: dict[tuple, np.ndarray]  # boxes-only component -> block from an earlier call
@@ -223,7 +234,8 @@ class _KnotWork:
 
 
 class PhiDynamics:
-    """phi for iLQR (`ilqr.Dynamics`): ``step(t, x, u)``, ``rollout``, ``linearize``.
+    """phi for iLQR (`ilqr.Dynamics`): ``step(t, x, u)``, ``rollout``, ``linearize``, and the
+    contact forces of each step with their Jacobians (``step_forces``, ``linearize_forces``).
 
     Owns an in-process `Phi` for steps and, with ``config.workers`` > 0, uses a `WorkerPool`
     (its own, or a shared one passed in) for derivatives. Call `close` (or use ``with``) to stop
@@ -239,14 +251,28 @@ class PhiDynamics:
         self.pool = WorkerPool(self.config.workers) if self._own_pool else pool
         self._steps: OrderedDict = OrderedDict()
         self._known: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # boxes-only component
-        # -> (its box states, its Jacobian block) from an earlier knot or call
+        # -> (its box states, its output-row block) from an earlier knot or call
+        self._last: tuple | None = None  # (key of xs, us; full Jacobians; forces) of the last
+        # linearisation
         self.stats = LinearizeStats()
+
+    @property
+    def num_forces(self) -> int:
+        """Length of the contact-force vector f (1 + kept boxes; see `step_forces`)."""
+        return self.phi.num_forces
 
     # -- dynamics
 
     def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """phi(x, u) (``t`` is unused: phi is time-invariant); remembered for linearize."""
         return self._traced(x, u)[0].copy()
+
+    def step_forces(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The contact forces f (N, shape (1 + n,)) of phi's step from (x, u): entry 0 the
+        arm, entry i + 1 kept box i, each the sum of the contact-force magnitudes between that
+        body and every other object (not the shelf), averaged over the knot's sub-steps
+        (`dynamics.Phi.contact_forces`). Table I's force(q, x) for c_force."""
+        return self._traced(x, u)[2].copy()
 
     def rollout(self, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
         """States x_0..x_T of controls ``us`` (T, 8) from x0."""
@@ -259,15 +285,15 @@ class PhiDynamics:
     def _key(self, x, u) -> tuple[bytes, bytes]:
         return np.asarray(x, dtype=float).tobytes(), np.asarray(u, dtype=float).tobytes()
 
-    def _traced(self, x, u) -> tuple[np.ndarray, set]:
+    def _traced(self, x, u) -> tuple[np.ndarray, set, np.ndarray]:
         key = self._key(x, u)
         hit = self._steps.get(key)
         if hit is None:
-            hit = self._remember(key, self.phi.step_traced(x, u))
+            hit = self._remember(key, self.phi.step_full(x, u))
         self._steps.move_to_end(key)
         return hit
 
-    def _remember(self, key, result) -> tuple[np.ndarray, set]:
+    def _remember(self, key, result) -> tuple[np.ndarray, set, np.ndarray]:
         self._steps[key] = result
         while len(self._steps) > self.config.step_cache_size:
             self._steps.popitem(last=False)
@@ -288,26 +314,49 @@ class PhiDynamics:
         return A, B
 
     def linearize_tangent(self, xs: np.ndarray, us: np.ndarray):
-        """A~ (T, ndx, ndx), B~ (T, ndx, nu) in tangent coordinates about (xs, us)."""
-        tic = time.perf_counter()
+        """A~ (T, ndx, ndx), B~ (T, ndx, nu) in tangent coordinates about (xs, us). The same
+        finite differences give the contact forces' Jacobians: `linearize_forces`."""
+        J = self._linearize_full(xs, us)
+        ndx = self.layout.ndx
+        return J[:, :ndx, :ndx].copy(), J[:, :ndx, ndx:].copy()
+
+    def linearize_forces(self, xs: np.ndarray, us: np.ndarray):
+        """Contact forces and their Jacobians about (xs, us): f (T, nf), Fx (T, nf, ndx),
+        Fu (T, nf, nu), nf = 1 + kept boxes. Row 0 is the arm's force, row i + 1 kept box i's
+        (the layout of `step_forces`); columns are tangent coordinates of x_t and u_t, as in
+        `linearize_tangent`. Free after `linearize_tangent` on the same (xs, us): both come
+        from one set of finite differences (a row is differenced with the columns of its
+        body's interaction component, so the colouring holds for it too)."""
+        J = self._linearize_full(xs, us)
+        ndx = self.layout.ndx
+        f = np.array([self._traced(xs[t], us[t])[2] for t in range(len(J))])
+        return f, J[:, ndx:, :ndx].copy(), J[:, ndx:, ndx:].copy()
+
+    def _linearize_full(self, xs: np.ndarray, us: np.ndarray) -> np.ndarray:
+        """Jacobians (T, ndx + nf, ndx + nu) of phi's output [x', f] w.r.t. [dx, du]."""
         us = np.atleast_2d(np.asarray(us, dtype=float))
+        xs = np.asarray(xs, dtype=float)
+        key = (xs[:len(us)].tobytes(), us.tobytes(), len(us))
+        if self._last is not None and self._last[0] == key:
+            return self._last[1]
+        tic = time.perf_counter()
         T = len(us)
         knots = differentiated_knots(T, self.config.derivative_stride)
         self.stats = LinearizeStats(knots=T, differentiated_knots=len(knots))
-        self._trace_missing(xs, us, knots)
+        self._trace_missing(xs, us, range(T))
         pending: dict[tuple, list[tuple[np.ndarray, int]]] = {}
         work = [self._plan(t, xs[t], us[t], pending) for t in knots]
         results = self._evaluate(work)
-        A = np.zeros((T, self.layout.ndx, self.layout.ndx))
-        B = np.zeros((T, self.layout.ndx, NU))
+        J = np.zeros((T, self.layout.ndx + self.num_forces, self.layout.ndx + NU))
         for w, D in zip(work, results, strict=True):  # in knot order: copies come from earlier
             for comp, source in w.copies.items():
-                w.known[comp] = A[source][np.ix_(*[self._rows(comp)] * 2)]
-            self._assemble(w, D, A[w.t], B[w.t])
+                w.known[comp] = J[source][np.ix_(self._out_rows(comp), self._rows(comp))]
+            self._assemble(w, D, J[w.t])
             self.stats.evaluations.append(1 + len(w.groups) * self._evals_per_group())
-        interpolate_between(A, B, knots)
+        interpolate_between(J, np.zeros((T, 0, 0)), knots)
         self.stats.seconds = time.perf_counter() - tic
-        return A, B
+        self._last = (key, J)
+        return J
 
     def _evals_per_group(self) -> int:
         return 2 if self.config.fd_scheme == "central" else 1
@@ -318,7 +367,7 @@ class PhiDynamics:
         if not missing:
             return
         if self.pool is None:
-            results = [self.phi.step_traced(xs[t], us[t]) for t in missing]
+            results = [self.phi.step_full(xs[t], us[t]) for t in missing]
         else:
             key = self.spec.key
             results = self.pool.map([("trace", key, self.spec, xs[t], us[t]) for t in missing])
@@ -328,6 +377,9 @@ class PhiDynamics:
     def _rows(self, comp) -> np.ndarray:
         return np.concatenate([node_rows(self.layout, n) for n in comp])
 
+    def _out_rows(self, comp) -> np.ndarray:
+        return np.concatenate([node_output_rows(self.layout, n) for n in comp])
+
     def _plan(self, t: int, x, u, pending: dict) -> _KnotWork:
         """What knot t needs: components to difference, colour groups, reusable blocks.
 
@@ -335,7 +387,7 @@ class PhiDynamics:
         ``known_block_tolerance`` of an earlier knot's reuses that knot's block: from an
         earlier call (``known``) or from a knot differenced in this call (``copies``, found in
         ``pending``: component -> [(states, knot)])."""
-        x_next, edges = self._steps[self._key(x, u)]
+        x_next, edges, f = self._steps[self._key(x, u)]
         fd, known, copies = [], {}, {}
         tolerance = self.config.known_block_tolerance
         for comp in components(self.layout.num_boxes + 1, edges):
@@ -357,48 +409,48 @@ class PhiDynamics:
             fd.append(comp)
         columns = [sum((node_columns(self.layout, n) for n in comp), []) for comp in fd]
         self.stats.known_boxes += len(known) + len(copies)
-        return _KnotWork(t, x, u, x_next, fd, colour_groups(columns), known, copies)
+        return _KnotWork(t, x, u, (x_next, f), fd, colour_groups(columns), known, copies)
 
     def _evaluate(self, work: list[_KnotWork]) -> list[np.ndarray]:
-        """Difference quotients per knot, (groups, ndx) each; split into tasks for the pool."""
+        """Difference quotients per knot, (groups, ndx + nf) each; split into pool tasks."""
         h, scheme = self.config.fd_step, self.config.fd_scheme
         if self.pool is None:
-            return [group_differences(self.phi, w.x, w.u, w.x_next, w.groups, h, scheme)
+            return [group_differences(self.phi, w.x, w.u, w.nominal, w.groups, h, scheme)
                     for w in work]
         total = sum(len(w.groups) for w in work)
         chunk = max(1, math.ceil(total / (16 * self.pool.workers)))  # small: balance
         tasks, owners = [], []
         for i, w in enumerate(work):
             for start in range(0, len(w.groups), chunk):
-                tasks.append(("groups", self.spec.key, self.spec, w.x, w.u, w.x_next,
+                tasks.append(("groups", self.spec.key, self.spec, w.x, w.u, w.nominal,
                               w.groups[start:start + chunk], h, scheme))
                 owners.append(i)
         parts: list[list[np.ndarray]] = [[] for _ in work]
         for i, result in zip(owners, self.pool.map(tasks), strict=True):
             parts[i].append(result)
-        return [np.vstack(p) if p else np.zeros((0, self.layout.ndx)) for p in parts]
+        width = self.layout.ndx + self.num_forces
+        return [np.vstack(p) if p else np.zeros((0, width)) for p in parts]
 
-    def _assemble(self, w: _KnotWork, D: np.ndarray, A: np.ndarray, B: np.ndarray) -> None:
-        """Scatters a knot's difference quotients into A~_t, B~_t and refreshes known blocks."""
+    def _assemble(self, w: _KnotWork, D: np.ndarray, J: np.ndarray) -> None:
+        """Scatters a knot's difference quotients into its output Jacobian J (ndx + nf,
+        ndx + nu) and refreshes known blocks."""
         layout, ndx = self.layout, self.layout.ndx
         self.stats.failed_evaluations += int(np.sum(~np.all(np.isfinite(D), axis=1)))
-        J = np.zeros((ndx, ndx + NU))
+        J[:] = 0.0
         for comp in w.fd_components:
-            rows = np.concatenate([node_rows(layout, n) for n in comp])
+            rows = self._out_rows(comp)
             for g, col in enumerate(sum((node_columns(layout, n) for n in comp), [])):
                 J[rows, col] = D[g, rows]
         for comp, block in w.known.items():
-            J[np.ix_(*[self._rows(comp)] * 2)] = block
+            J[np.ix_(self._out_rows(comp), self._rows(comp))] = block
         for comp in w.fd_components:
             if ARM_NODE not in comp:
-                block = J[np.ix_(*[self._rows(comp)] * 2)]
+                block = J[np.ix_(self._out_rows(comp), self._rows(comp))]
                 if np.all(np.isfinite(block)):
                     states = layout.boxes(w.x)[[n - 1 for n in comp]].copy()
                     self._known[tuple(comp)] = (states, block.copy())
         J[:ARM_DIM] = 0.0  # the kinematic arm: x_arm' = u exactly
-        J[:ARM_DIM, ndx:] = np.eye(NU)
-        A[:] = J[:, :ndx]
-        B[:] = J[:, ndx:]
+        J[:ARM_DIM, ndx:ndx + NU] = np.eye(NU)
 
     def close(self) -> None:
         """Stops an owned worker pool."""

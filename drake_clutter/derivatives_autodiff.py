@@ -1,10 +1,10 @@
 """Exact Jacobians of one phi step by Drake's AutoDiffXd, to validate the finite differences.
 
-Drake steps SAP with AutoDiffXd through point contact, but has no AutoDiffXd Box-Box or
-Box-Capsule point queries, so this works on the corner-spheres variant of phi
-(``DynamicsConfig.contact_model = "spheres"``): boxes carried and touched only by spheres at
-their corners. ``ToAutoDiffXd()`` drops the PD gains of the arm's actuators; they are set again
-on the AutoDiffXd plant before its context is made.
+Drake steps SAP with AutoDiffXd through hydroelastic contact (compliant boxes against the
+rigid hydroelastic arm and shelf: phi's default) and through sphere point contact, but has no
+AutoDiffXd Box-Box or Box-Capsule point queries: the "point" contact model cannot be stepped
+(the "spheres" one can). ``ToAutoDiffXd()`` drops the PD gains of the arm's actuators; they are
+set again on the AutoDiffXd plant before its context is made.
 
 The derivatives are taken in the same tangent coordinates as `derivatives` (see
 `dynamics.StateLayout`): each box rotation is seeded as q0 + E(q0) dtheta, and read back as
@@ -32,13 +32,13 @@ def _arm_map() -> np.ndarray:
 
 
 class AutoDiffPhi:
-    """An AutoDiffXd copy of a (spheres-variant) Phi's plant, built once."""
+    """An AutoDiffXd copy of a Phi's plant (hydroelastic or spheres contact), built once."""
 
     def __init__(self, phi: Phi):
-        if phi.spec.config.contact_model != "spheres":
-            raise ValueError("AutoDiffXd needs the corner-spheres variant of phi "
-                             "(contact_model='spheres'): Drake has no AutoDiffXd Box-Box or "
-                             "Box-Capsule point queries")
+        if phi.spec.config.contact_model == "point":
+            raise ValueError("AutoDiffXd cannot step phi's 'point' contact model (Drake has no "
+                             "AutoDiffXd Box-Box or Box-Capsule point queries): use "
+                             "'hydroelastic' or 'spheres'")
         self.phi = phi
         self.diagram = phi.world.diagram.ToAutoDiffXd()
         self.plant = self.diagram.plant()

@@ -24,6 +24,14 @@ knots); the boxes start at their state. After the last sub-step the arm's state 
 (kinematic): d x_arm' / dx = 0 and d x_arm' / du = I. Everything phi needs is in x and u, so
 phi is deterministic: the same (x, u) gives the same bits.
 
+Contact (``DynamicsConfig.contact_model``): by default the boxes are compliant hydroelastic
+bodies with a margin (``WorldConfig.hydroelastic_margin``) against the rigid hydroelastic arm and
+shelf, so pairs enter SAP's problem before they touch and phi is continuous in (x, u); with
+point contact SAP sees a pair only once it penetrates, and a perturbation that decides whether
+it does at a sub-step's start changes the next velocity by a jump. Each step also yields the
+contact forces between bodies (`Phi.contact_forces`, averaged over the knot): Table I's
+force(q, x).
+
 Boxes phi does not keep (see `pruning`) are welded to W where they stand: static geometry that
 the arm and the kept boxes still touch. The kept set is chosen per candidate trajectory against
 the current box states; a planner that moves the trajectory far re-prunes (a new `PhiSpec`).
@@ -299,6 +307,7 @@ def check_config(config: DynamicsConfig) -> None:
         ("prune_samples_per_knot", config.prune_samples_per_knot >= 1, "must be at least 1"),
         ("settle_time", config.settle_time >= 0, "must be >= 0"),
         ("step_cache_size", config.step_cache_size >= 1, "must be at least 1"),
+        ("divergence_limit", config.divergence_limit > 0, "must be positive"),
     ]
     for name, ok, reason in problems:
         if not ok:
@@ -340,11 +349,13 @@ class Phi:
         self.context = self.plant.GetMyMutableContextFromRoot(self.root)
         self.plant.get_actuation_input_port().FixValue(
             self.context, np.zeros(self.plant.num_actuated_dofs()))
+        self._q_default = self.plant.GetPositions(self.context).copy()
         self._robot_q = self.world.robot_position_indices()
         self._robot_v = np.array([self.plant.GetJointByName(n, self.world.robot).velocity_start()
                                   for n in ROBOT_JOINTS])
         self._box_q, self._box_v = self._box_indices()
         self._geometry_nodes = self._map_geometry_to_nodes()
+        self._contact_port = self.plant.get_contact_results_output_port()
         self.failures = 0
 
     # -- layout in the plant
@@ -392,7 +403,8 @@ class Phi:
         robot positions at both ends (ROBOT_JOINTS order)."""
         x, u = np.asarray(x, dtype=float), np.asarray(u, dtype=float)
         plant, ctx = self.plant, self.context
-        q, v = plant.GetPositions(ctx), np.zeros(plant.num_velocities())
+        q, v = self._q_default.copy(), np.zeros(plant.num_velocities())  # not the context's:
+        # a diverged step leaves NaN there
         q_start, q_end = robot_positions(x[:ARM_DIM]), robot_positions(u)
         q[self._robot_q] = q_start
         v[self._robot_v] = (q_end - q_start) / self.spec.knot_time
@@ -410,6 +422,8 @@ class Phi:
         q, v = self.plant.GetPositions(self.context), self.plant.GetVelocities(self.context)
         boxes = np.concatenate([q[self._box_q], v[self._box_v]], axis=1)
         if len(boxes):
+            diverged = np.any(np.abs(boxes) > self.spec.config.divergence_limit, axis=1)
+            boxes[diverged] = np.nan  # the caller counts a failure
             boxes[:, :4] /= np.linalg.norm(boxes[:, :4], axis=1, keepdims=True)
             boxes[:, :4] *= np.where(boxes[:, :1] < 0, -1.0, 1.0)
         return self.layout.join(np.asarray(u, dtype=float), boxes)
@@ -418,21 +432,36 @@ class Phi:
 
     def step(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
         """phi(x, u): one knot interval (see the module docstring). NaN state on failure."""
-        return self._step(x, u, trace=False)[0]
+        return self._step(x, u, trace=False, forces=False)[0]
 
     def step_traced(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, set]:
         """phi(x, u) and the interaction edges seen during it: pairs (a, b), a < b, of nodes
-        (ARM_NODE, box i + 1, frozen box j as -(j + 1)) that touched at the start of some
-        sub-step (SAP decides contact there) or came within ``interaction_margin`` at the
-        start or the end of the knot. (A pair that comes closer than a perturbation's reach,
-        ~1e-5 m, in mid-knot without touching is missed: a knot where contact is about to
-        begin is a kink that finite differences straddle anyway.)"""
-        return self._step(x, u, trace=True)
+        (ARM_NODE, box i + 1, frozen box j as -(j + 1)) that were in SAP's contact problem at
+        some sub-step (touching, or for hydroelastic boxes within their margin) or came within
+        ``interaction_margin`` at the start or the end of the knot. (A pair that comes closer
+        than a perturbation's reach, ~1e-5 m, in mid-knot without touching is missed.)"""
+        return self._step(x, u, trace=True, forces=False)[:2]
 
-    def _step(self, x, u, trace: bool) -> tuple[np.ndarray, set]:
+    def step_full(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, set, np.ndarray]:
+        """phi(x, u), its interaction edges (`step_traced`) and its contact forces
+        (`contact_forces`, shape (1 + n,), N)."""
+        return self._step(x, u, trace=True, forces=True)
+
+    def step_forces(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """phi(x, u) and its contact forces (see `contact_forces`), without tracing."""
+        x_next, _, f = self._step(x, u, trace=False, forces=True)
+        return x_next, f
+
+    @property
+    def num_forces(self) -> int:
+        """Length of the force vector: one entry per node (the arm, then each kept box)."""
+        return 1 + self.layout.num_boxes
+
+    def _step(self, x, u, trace: bool, forces: bool) -> tuple[np.ndarray, set, np.ndarray]:
+        f = np.zeros(self.num_forces)
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
             self.failures += 1  # Drake aborts on non-finite positions: never hand them over
-            return np.full(self.layout.nx, np.nan), set()
+            return np.full(self.layout.nx, np.nan), set(), f * np.nan
         q_start, q_end = self.set_state(x, u)
         n = self.spec.config.substeps
         v_arm = (q_end - q_start) / self.spec.knot_time
@@ -444,28 +473,69 @@ class Phi:
                 if trace:
                     edges |= self.interactions() if k == 0 else self.contacts()
                 state = self.plant.EvalUniquePeriodicDiscreteUpdate(self.context)
+                if forces:  # the same cached SAP solve as the update
+                    f += self.contact_forces()
                 self.context.SetDiscreteState(state.value())
             if trace:
                 edges |= self.interactions()
         except RuntimeError:
             self.failures += 1
-            return np.full(self.layout.nx, np.nan), edges
+            return np.full(self.layout.nx, np.nan), edges, f * np.nan
         x_next = self.read_state(u)
         if not np.all(np.isfinite(x_next)):
             self.failures += 1
-            return np.full(self.layout.nx, np.nan), edges
-        return x_next, edges
+            return np.full(self.layout.nx, np.nan), edges, f * np.nan
+        return x_next, edges, f / n
+
+    def contact_forces(self) -> np.ndarray:
+        """Contact forces of the SAP step from the current plant state, per node (N, shape
+        (1 + n,)): entry 0 the arm, entry i + 1 kept box i; each sums the magnitudes |f| of the
+        contact forces (normal and friction together) between that node and every other object
+        (arm, kept or frozen box) - Table I's forces between pairs of objects. Contacts with the
+        shelf are left out: they carry the boxes' weight at every knot (ours); so are a
+        body's internal ones. A pair appears in both its nodes' entries. `step_full` averages
+        this over a knot's sub-steps."""
+        results = self._contact_port.Eval(self.context)
+        f = np.zeros(self.num_forces)
+        pairs = [(info.point_pair().id_A, info.point_pair().id_B, info.contact_force())
+                 for info in map(results.point_pair_contact_info,
+                                 range(results.num_point_pair_contacts()))]
+        pairs += [(info.contact_surface().id_M(), info.contact_surface().id_N(),
+                   info.F_Ac_W().translational())
+                  for info in map(results.hydroelastic_contact_info,
+                                  range(results.num_hydroelastic_contacts()))]
+        for id_a, id_b, force in pairs:
+            a, b = self._geometry_nodes.get(id_a), self._geometry_nodes.get(id_b)
+            if a is None or b is None or a == b:
+                continue
+            magnitude = float(np.linalg.norm(force))
+            for node in (a, b):
+                if node >= 0:
+                    f[node] += magnitude
+        return f
+
+    @property
+    def contact_margin(self) -> float:
+        """m: pairs this far apart are already in SAP's contact problem (the hydroelastic
+        boxes' margin; 0 for point contact, where only touching pairs are)."""
+        if self.spec.config.contact_model == "hydroelastic":
+            return self.spec.world.hydroelastic_margin
+        return 0.0
 
     def interactions(self) -> set:
-        """Node pairs within ``interaction_margin`` in the current plant state."""
+        """Node pairs within ``interaction_margin`` (beyond `contact_margin`) in the current
+        plant state."""
         query = self.plant.get_geometry_query_input_port().Eval(self.context)
         return self._edges(query.ComputeSignedDistancePairwiseClosestPoints(
-            self.spec.config.interaction_margin))
+            self.spec.config.interaction_margin + self.contact_margin))
 
     def contacts(self) -> set:
-        """Node pairs in contact (penetrating) in the current plant state: the pairs SAP's
-        point contact uses in a step from here (3x cheaper than `interactions`)."""
+        """Node pairs in SAP's contact problem for a step from the current plant state:
+        penetrating pairs (3x cheaper than `interactions`), or pairs within `contact_margin`."""
         query = self.plant.get_geometry_query_input_port().Eval(self.context)
+        if self.contact_margin > 0:
+            return self._edges(query.ComputeSignedDistancePairwiseClosestPoints(
+                self.contact_margin))
         return self._edges(query.ComputePointPairPenetration())
 
     def _edges(self, pairs) -> set:

@@ -24,10 +24,12 @@ import numpy as np
 from pydrake.geometry import (
     AddCompliantHydroelasticProperties,
     AddContactMaterial,
+    AddRigidHydroelasticProperties,
     Box,
     CollisionFilterDeclaration,
     GeometrySet,
     ProximityProperties,
+    RoleAssign,
     Sphere,
 )
 from pydrake.math import RigidTransform, RollPitchYaw
@@ -163,6 +165,8 @@ def _box_proximity(box: BoxObject, config: WorldConfig, compliant: bool) -> Prox
     if compliant:
         AddCompliantHydroelasticProperties(config.resolution_hint, config.hydroelastic_modulus,
                                            props)
+        if config.hydroelastic_margin > 0:
+            props.AddProperty("hydroelastic", "margin", config.hydroelastic_margin)
         props.AddProperty("material", "relaxation_time", config.relaxation_time)
     return props
 
@@ -324,12 +328,14 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
     ``frozen_boxes`` (name -> X_WB) welds those boxes to W at the given poses: static geometry
     that other bodies still touch (phi keeps only the boxes a trajectory can affect dynamic).
     ``point_contact`` replaces the hydroelastic boxes by point-contact ones (see
-    `PointContactBoxes`).
+    `PointContactBoxes`). Without it the boxes carry ``config.hydroelastic_margin`` and, with
+    ``config.robot_hydroelastic``, the arm is rigid hydroelastic and does not touch the shelf.
     """
     config = config or WorldConfig()
     builder = RobotDiagramBuilder(time_step=config.time_step)
     plant = builder.plant()
     plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
+    plant.set_sap_near_rigid_threshold(config.near_rigid_threshold)
     plant.set_contact_model(ContactModel.kHydroelasticWithFallback if point_contact is None
                             else ContactModel.kPoint)
     parts = _new_world(builder, scene, variant, config, True, frozen_boxes, point_contact)
@@ -342,11 +348,28 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
         CollisionFilterDeclaration().ExcludeWithin(robot_geometry))
     if point_contact is not None:
         _filter_point_contact_pairs(parts, plant, builder.scene_graph(), point_contact)
+    elif config.robot_hydroelastic:
+        _make_rigid_hydroelastic(plant, builder.scene_graph(), parts["robot"], config)
+        builder.scene_graph().collision_filter_manager().Apply(
+            CollisionFilterDeclaration().ExcludeBetween(robot_geometry,
+                                                        _geometries(plant, parts["shelf"])))
     if meshcat is not None:
         _add_meshcat(builder, meshcat)
     diagram = builder.Build()
     return World(scene, variant, diagram, plant, parts["robot"], parts["shelf"], parts["boxes"],
                  tuple(b.name for b in scene.boxes))
+
+
+def _make_rigid_hydroelastic(plant: MultibodyPlant, scene_graph, instance: ModelInstanceIndex,
+                             config: WorldConfig) -> None:
+    """Gives a model instance's collision geometry rigid hydroelastic properties (keeping its
+    friction), so that it meets the compliant boxes in hydroelastic contact."""
+    inspector = scene_graph.model_inspector()
+    for geometry in [g for index in plant.GetBodyIndices(instance)
+                     for g in plant.GetCollisionGeometriesForBody(plant.get_body(index))]:
+        props = ProximityProperties(inspector.GetProximityProperties(geometry))
+        AddRigidHydroelasticProperties(config.resolution_hint, props)
+        scene_graph.AssignRole(plant.get_source_id(), geometry, props, RoleAssign.kReplace)
 
 
 def park_positions(world: World, config: WorldConfig) -> np.ndarray:

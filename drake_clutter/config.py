@@ -289,6 +289,23 @@ class PhysicsConfig:
     tolerance: float = 1e-6  # relative cost decrease that stops iLQR (the solver's default);
     # ours: at 1e-4 the fig5 pre-processing stopped after a first short line-search step (2e-5)
     # with c_dynamic unchanged, at 1e-6 it went on to halve it in 10 iterations (measured)
+    line_search_steps: int = 6  # step sizes tried per backward pass (every stage); ours:
+    # each try is a rollout (through phi, or 2 x 29 distance queries); with adaptive_step the
+    # search starts near the last accepted size, so 6 halvings (a factor 32) suffice; at 10
+    # the fig6 pre-processing spent 60 rollouts failing before its first step (measured)
+    adaptive_step: bool = True  # start each line search at twice the last accepted step; ours:
+    # on fig5 the phi stage's full step failed at every iteration (accepted 1/32..1/128 with
+    # 5-10 failed rollouts before each, measured)
+    step_limit_fraction: float = 0.5  # trust region of the phi stages: no control moves more
+    # than this fraction of its per-knot speed-limit step (c_speed's max step) in one forward
+    # pass, feedback included; ours: 5 unlimited iterations on fig5 raised c_static from 0 to
+    # 45 (the arm pushed into the board) while trading c_force down (measured)
+    max_failed_searches: int = 3  # a stage stops after this many failed line searches in one
+    # iteration (mu x 10 after each); ours: the fig5 phi stage spent 8 failed searches (96
+    # rollouts, most of its 854 s) before its regulariser went far enough (measured)
+    open_loop_fallback: bool = True  # phi stages retry a failed line search with K = 0; ours:
+    # the feedback amplifies the finite-difference errors of A in contact (issue 6)
+
 
 
 @dataclass(frozen=True)

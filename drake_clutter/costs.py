@@ -111,17 +111,19 @@ def _smooth_angle(cos_angle: float, dcos: np.ndarray, ddcos: np.ndarray | None) 
     return Term(value, gradient, a_exact * np.outer(dcos, dcos) + b * ddcos)
 
 
-def upright(R_WB: np.ndarray) -> Term:
+def upright(R_WB: np.ndarray, gauss_newton: bool = False) -> Term:
     """c_upright = tilt angle of the box's z axis from W's z, over a rotation vector in W (3,).
 
-    Exact Hessian (it may be indefinite far from upright; the planner regularises).
+    Exact Hessian (it may be indefinite far from upright), or with ``gauss_newton`` the
+    positive semi-definite Gauss-Newton one (what iLQR needs: an indefinite term, carried back
+    through phi's Jacobians, made Q_uu indefinite beyond any regulariser on fig6, measured).
     """
     b = R_WB[:, 2]
     z = np.array([0.0, 0.0, 1.0])
     # b(w) = exp([w]x) b = b + w x b + 1/2 w x (w x b) + ...;  c = z . b(w)
     dcos = np.cross(b, z)
     ddcos = 0.5 * (np.outer(z, b) + np.outer(b, z)) - b[2] * np.eye(3)
-    return _smooth_angle(b[2], dcos, ddcos)
+    return _smooth_angle(b[2], dcos, None if gauss_newton else ddcos)
 
 
 def gripper_horizontal(z_gripper_W: np.ndarray, dz_dq: np.ndarray) -> Term:

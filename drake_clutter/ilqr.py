@@ -10,9 +10,10 @@ The solver sees two small protocols and nothing of Drake:
 ``xs`` has T + 1 rows (x_0 .. x_T) and ``us`` T rows (u_0 .. u_{T-1}).
 
 Controls may be box-bounded (``u_min``/``u_max``): the forward pass clamps every control into
-the box, and the backward pass drops the feedback of controls that sit on a bound in the
-nominal trajectory (their gradient pushing outwards), so the linear policy does not fight the
-clamp - the simple form of the control-limited iLQR of Tassa et al. (2014).
+the box, and the backward pass holds the controls that sit on a bound in the nominal
+trajectory with their gradient pushing outwards (no step, no feedback) and solves the free
+controls' block of Q_uu alone, so the linear policy does not fight the clamp - the simple form
+of the control-limited iLQR of Tassa et al. (2014).
 
 Manifold states: with ``difference(x_a, x_b) -> dx`` (x_a minus x_b in tangent coordinates,
 e.g. rotation vectors for quaternion states) the linearisation and the expansion live in the
@@ -21,9 +22,17 @@ K (x (-) x_bar); without it the states are plain vectors and x - x_bar is used.
 
 Regularisation: Levenberg-Marquardt on Q_uu (``mu * I``), raised by ``reg_factor`` whenever
 Q_uu is not positive definite or the line search fails, lowered after every accepted step.
-Line search: step sizes 1, 1/2, 1/4, ...; a step is accepted only if it lowers the objective,
-so the cost never increases across accepted iterations. Stop rules: the iteration cap, a
-relative decrease below ``tolerance``, or the regulariser exceeding ``reg_max``.
+Line search: step sizes 1, 1/2, 1/4, ... (with ``adaptive_step``: from twice the last
+accepted size); a step is accepted only if it lowers the objective, so the cost never increases
+across accepted iterations. For inexact derivatives (phi's finite differences in contact) two
+safeguards are optional: a trust region on the controls (``step_limit``: no control changes by
+more than its limit per forward pass, feedback included) and an open-loop retry of the line
+search (``open_loop_fallback``: K = 0, so errors in A are not fed back), and ``cost_floor``:
+a model that predicts a decrease below a known lower bound of the objective is rejected
+without a rollout (mu is raised). ``ILQRResult.log``
+records every backward pass: regulariser, predicted and actual decrease, step size. Stop rules:
+the iteration cap, a relative decrease below ``tolerance``, the regulariser exceeding
+``reg_max``, or ``max_failed_searches`` failed line searches in one iteration.
 """
 
 from __future__ import annotations
@@ -83,6 +92,20 @@ class ILQRSettings:
     line_search_steps: int = 10  # step sizes 1, 1/2, ..., 2^-9
     u_min: tuple[float, ...] | None = None
     u_max: tuple[float, ...] | None = None
+    step_limit: tuple[float, ...] | None = None  # trust region: the largest change of each
+    # control per knot in one forward pass (|u - u_bar| <= step_limit, feedback included)
+    adaptive_step: bool = False  # start each line search at twice the last accepted step size
+    # (capped at 1) instead of 1: with inexact derivatives the full step keeps failing and
+    # every failed try is a rollout
+    cost_floor: float | None = None  # a known lower bound of the objective (0 for sums of
+    # non-negative terms): a backward pass predicting a decrease below it is not tried (no
+    # rollout), mu is raised instead - the model cannot be trusted that far
+    max_failed_searches: int | None = None  # stop ("line_search_failed") after this many
+    # failed line searches in one iteration instead of raising mu up to reg_max (each failed
+    # search is line_search_steps rollouts); None: no such limit
+    open_loop_fallback: bool = False  # when the closed-loop line search fails, try the same
+    # step sizes with K = 0 before raising the regulariser (for inexact A: K (x - x_bar)
+    # amplifies its errors)
 
 
 @dataclass
@@ -99,6 +122,10 @@ class ILQRResult:
     iterations: int
     stop_reason: str
     timings: dict[str, float] = field(default_factory=dict)  # s, summed over iterations
+    log: list[dict] = field(default_factory=list)  # one entry per backward pass: regulariser
+    # mu, the model's predicted decrease at the full step, the accepted step size alpha (0:
+    # none), the actual decrease, whether the step was open loop, forward passes tried, and
+    # the non-finite derivative entries zeroed
 
     @property
     def converged(self) -> bool:
@@ -138,24 +165,40 @@ def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
         qxx = exp.lxx[t] + At.T @ vxx @ At
         quu = exp.luu[t] + Bt.T @ vxx @ Bt
         qux = exp.lux[t] + Bt.T @ vxx @ At
-        try:
-            chol = np.linalg.cholesky(quu + mu * np.eye(nu))
-        except np.linalg.LinAlgError:
-            return None
         free = np.ones(nu, dtype=bool)
         if us is not None:  # controls pinned on a bound with the gradient pushing outwards
             free &= ~(((us[t] <= lo) & (qu > 0)) | ((us[t] >= hi) & (qu < 0)))
-        kt = -_chol_solve(chol, qu)
-        Kt = -_chol_solve(chol, qux)
-        kt[~free] = 0.0
-        Kt[~free] = 0.0
+        # Pinned controls stay put (k = 0, K = 0); the free ones solve their own block, so the
+        # step is the minimiser of the model over the free controls (the predicted decrease is
+        # then never negative; zeroing rows of the full solution could make it so).
+        kt, Kt = np.zeros(nu), np.zeros((nu, nx))
+        if free.any():
+            try:
+                chol = np.linalg.cholesky(quu[np.ix_(free, free)] + mu * np.eye(free.sum()))
+            except np.linalg.LinAlgError:
+                return None
+            kt[free] = -_chol_solve(chol, qu[free])
+            Kt[free] = -_chol_solve(chol, qux[free])
         k[t], K[t] = kt, Kt
         d1 += kt @ qu
         d2 += 0.5 * kt @ quu @ kt
         vx = qx + Kt.T @ quu @ kt + Kt.T @ qu + qux.T @ kt
-        vxx = qxx + Kt.T @ quu @ Kt + Kt.T @ qux + qux.T @ Kt
-        vxx = 0.5 * (vxx + vxx.T)
+        vxx = _psd(qxx + Kt.T @ quu @ Kt + Kt.T @ qux + qux.T @ Kt)
     return k, K, (d1, d2)
+
+
+def _psd(M: np.ndarray) -> np.ndarray:
+    """The nearest symmetric positive semi-definite matrix (negative eigenvalues set to 0).
+
+    With positive semi-definite cost Hessians V_xx is too in exact arithmetic without
+    regularisation; the LM term (K from Q_uu + mu I) and large, inexact A (phi's finite
+    differences, entries up to 1e3) make it indefinite, and Q_uu then stayed indefinite up to
+    mu = 1e10 on fig6 and fig7 (measured)."""
+    M = 0.5 * (M + M.T)
+    w, V = np.linalg.eigh(M)
+    if w.min() >= 0.0:
+        return M
+    return (V * np.maximum(w, 0.0)) @ V.T
 
 
 def _chol_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
@@ -167,9 +210,11 @@ def _subtract(x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
     return x_a - x_b
 
 
-def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, difference=None):
+def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, difference=None,
+                 limit: np.ndarray | None = None):
     """New (xs, us) from the policy u = clamp(u_bar + alpha k + K (x (-) x_bar)); ``difference``
-    is the state difference (default: plain subtraction)."""
+    is the state difference (default: plain subtraction); ``limit`` (nu,) bounds each control's
+    change |u - u_bar| (None: unbounded)."""
     difference = difference or _subtract
     new_xs = np.empty_like(xs)
     new_us = np.empty_like(us)
@@ -179,8 +224,14 @@ def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, differe
             new_xs[t:] = np.nan
             new_us[t:] = us[t:]
             break
-        u = us[t] + alpha * k[t] + K[t] @ difference(new_xs[t], xs[t])
-        new_us[t] = np.clip(u, lo, hi)
+        du = alpha * k[t] + K[t] @ difference(new_xs[t], xs[t])
+        if limit is not None:
+            du = np.clip(du, -limit, limit)
+        new_us[t] = np.clip(us[t] + du, lo, hi)
+        if not np.all(np.isfinite(new_us[t])):  # an overflowing policy: the step is rejected
+            new_xs[t + 1:] = np.nan
+            new_us[t:] = us[t:]
+            break
         new_xs[t + 1] = dynamics.step(t, new_xs[t], new_us[t])
     return new_xs, new_us
 
@@ -192,7 +243,10 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     settings = settings or ILQRSettings()
     us = np.array(us_init, dtype=float)
     lo, hi = _bounds(settings, us.shape[1])
+    limit = None if settings.step_limit is None else np.asarray(settings.step_limit, float)
     us = np.clip(us, lo, hi)
+    if not np.all(np.isfinite(us)):
+        raise ValueError("the initial controls are not all finite")
     timings = {"rollout": 0.0, "linearize": 0.0, "quadratize": 0.0, "backward": 0.0,
                "forward": 0.0}
     tic = time.perf_counter()
@@ -200,13 +254,13 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     timings["rollout"] += time.perf_counter() - tic
     terms = cost.terms(xs, us)
     total = float(sum(terms.values()))
-    history, term_history = [total], [terms]
+    history, term_history, log = [total], [terms], []
     mu = settings.reg_init
     ndx = xs.shape[1] if difference is None else len(difference(xs[0], xs[0]))
     K = np.zeros((len(us), us.shape[1], ndx))
     k = np.zeros_like(us)
     stop_reason = "max_iterations"
-    iteration = 0
+    iteration, alpha0 = 0, 1.0
     while iteration < settings.max_iterations:
         iteration += 1
         tic = time.perf_counter()
@@ -215,8 +269,10 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
         tic = time.perf_counter()
         exp = cost.quadratize(xs, us)
         timings["quadratize"] += time.perf_counter() - tic
-        accepted = False
-        while mu <= settings.reg_max:
+        nonfinite = _zero_nonfinite(A, B, *vars(exp).values())
+        accepted, failed = False, 0
+        while mu <= settings.reg_max and (settings.max_failed_searches is None
+                                          or failed < settings.max_failed_searches):
             tic = time.perf_counter()
             bp = backward_pass(A, B, exp, mu, us, lo, hi)
             timings["backward"] += time.perf_counter() - tic
@@ -224,21 +280,32 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                 mu = max(mu * settings.reg_factor, settings.reg_min)
                 continue
             k, K, (d1, d2) = bp
+            entry = {"mu": mu, "expected": -(d1 + d2), "alpha": 0.0, "actual": 0.0,
+                     "open_loop": False, "tries": 0, "nonfinite": nonfinite}
+            log.append(entry)
             if -(d1 + d2) < settings.tolerance * max(abs(total), 1e-12):
                 break  # the model predicts no worthwhile decrease: a stationary point
+            if settings.cost_floor is not None and -(d1 + d2) > total - settings.cost_floor:
+                mu = max(mu * settings.reg_factor, settings.reg_min)
+                continue  # predicted below the floor: raise mu without a rollout
             tic = time.perf_counter()
             step = _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings,
-                                difference)
+                                difference, limit, entry, alpha0)
             timings["forward"] += time.perf_counter() - tic
             if step is not None:
                 accepted = True
                 break
+            failed += 1
             mu = max(mu * settings.reg_factor, settings.reg_min)
         if not accepted:
-            stop_reason = "converged" if mu <= settings.reg_max else "regularization_limit"
+            stop_reason = ("regularization_limit" if mu > settings.reg_max else
+                           "line_search_failed" if failed and failed == settings.max_failed_searches
+                           else "converged")
             iteration -= 1
             break
         xs, us, terms, new_total = step
+        if settings.adaptive_step:
+            alpha0 = min(1.0, 2.0 * entry["alpha"])
         mu = max(mu / settings.reg_factor, settings.reg_min)
         improvement = (total - new_total) / max(abs(total), 1e-12)
         total = new_total
@@ -249,18 +316,41 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
             break
     return ILQRResult(xs=xs, us=us, K=K, k=k, cost=total, cost_history=history,
                       term_history=term_history, iterations=iteration, stop_reason=stop_reason,
-                      timings=timings)
+                      timings=timings, log=log)
 
 
-def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, difference=None):
-    """First step size 1, 1/2, ... that lowers the objective: (xs, us, terms, total) or None."""
-    alpha = 1.0
-    for _ in range(settings.line_search_steps):
-        new_xs, new_us = forward_pass(dynamics, xs, us, k, K, alpha, lo, hi, difference)
-        if np.all(np.isfinite(new_xs)):
-            terms = cost.terms(new_xs, new_us)
-            new_total = float(sum(terms.values()))
-            if new_total < total:
-                return new_xs, new_us, terms, new_total
-        alpha *= 0.5
+def _zero_nonfinite(*arrays: np.ndarray) -> int:
+    """Sets the non-finite entries of the derivative arrays to 0 in place (a failed
+    finite-difference evaluation: no known effect), returning how many there were; without
+    this a single NaN makes every Cholesky factorisation fail up to ``reg_max``."""
+    count = 0
+    for a in arrays:
+        bad = ~np.isfinite(a)
+        if bad.any():
+            count += int(bad.sum())
+            a[bad] = 0.0
+    return count
+
+
+def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, difference=None,
+                 limit=None, entry=None, alpha0: float = 1.0):
+    """First step size alpha0, alpha0/2, ... that lowers the objective, closed loop, then (with
+    ``open_loop_fallback``) open loop: (xs, us, terms, total) or None. ``entry`` (a log
+    dict) receives the accepted alpha, the actual decrease and the forward passes tried."""
+    entry = entry if entry is not None else {}
+    gains = [K, np.zeros_like(K)] if settings.open_loop_fallback else [K]
+    for gain in gains:
+        alpha = alpha0
+        for _ in range(settings.line_search_steps):
+            entry["tries"] = entry.get("tries", 0) + 1
+            new_xs, new_us = forward_pass(dynamics, xs, us, k, gain, alpha, lo, hi, difference,
+                                          limit)
+            if np.all(np.isfinite(new_xs)):
+                terms = cost.terms(new_xs, new_us)
+                new_total = float(sum(terms.values()))
+                if new_total < total:
+                    entry.update(alpha=alpha, actual=total - new_total,
+                                 open_loop=gain is not K)
+                    return new_xs, new_us, terms, new_total
+            alpha *= 0.5
     return None

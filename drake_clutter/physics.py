@@ -27,8 +27,9 @@ rotations as rotation vectors, `ilqr.solve`'s ``difference``). The start q^0 is 
 controls q^1..q^Delta are box-bounded by the PR2's joint limits and the gripper's [0, 0.09] m
 (clamped in the forward pass, the feedback of bound controls dropped: see `ilqr`).
 
-A failure (phi diverging on the initial rollout, a solver error) is a candidate with status
-``optimisation_failed`` and a reason, never an exception.
+A phi stage whose initial path phi cannot simulate starts again from the baseline's path (its
+record's ``started_from`` says so). A failure (phi diverging on that too, a solver error) is a
+candidate with status ``optimisation_failed`` and a reason, never an exception.
 
 The result is a `trajectory.Candidate` (planner "physics") whose ``details`` carry, per stage,
 the cost history per term, iterations and stop reason; ``timings`` the seconds per stage; and
@@ -54,7 +55,7 @@ from drake_clutter.dynamics import (
     make_spec,
     scene_box_states,
 )
-from drake_clutter.physics_costs import KinematicObjective, PhysicsObjective
+from drake_clutter.physics_costs import KinematicObjective, PhysicsObjective, max_steps
 from drake_clutter.physics_geometry import ArmGeometry
 from drake_clutter.pruning import make_pruned_spec
 from drake_clutter.scenes import Scene
@@ -129,17 +130,35 @@ def control_bounds() -> tuple[tuple[float, ...], tuple[float, ...]]:
             tuple(hi for _, hi in limits) + (robot_model.GRIPPER_MAX_OPENING,))
 
 
-def _settings(config: Config, iterations: int) -> ilqr.ILQRSettings:
+def _settings(config: Config, iterations: int, knot_time: float | None = None
+              ) -> ilqr.ILQRSettings:
+    """The solver's settings (line search of `PhysicsConfig`); with ``knot_time`` (s) those of
+    a phi stage: also the trust region, the open-loop retry, the failed-search stop (the
+    kinematic stages need mu ~ 1 before their first step, measured on fig5/fig6) and the cost
+    floor 0 (every Table I term is non-negative; fig6's first model predicted a decrease of
+    6.8e5 from an objective of 2.7e3 and every rollout failed, measured)."""
     lo, hi = control_bounds()
-    return ilqr.ILQRSettings(max_iterations=iterations, tolerance=config.physics.tolerance,
-                             u_min=lo, u_max=hi)
+    cfg = config.physics
+    settings = ilqr.ILQRSettings(max_iterations=iterations, tolerance=cfg.tolerance,
+                                 u_min=lo, u_max=hi, line_search_steps=cfg.line_search_steps,
+                                 adaptive_step=cfg.adaptive_step)
+    if knot_time is None:
+        return settings
+    limit = cfg.step_limit_fraction * max_steps(cfg, knot_time)
+    return replace(settings, open_loop_fallback=cfg.open_loop_fallback, cost_floor=0.0,
+                   max_failed_searches=cfg.max_failed_searches,
+                   step_limit=tuple(float(v) for v in limit))
 
 
 def _stage_record(result: ilqr.ILQRResult, seconds: float, extra: dict | None = None) -> dict:
     return {"iterations": result.iterations, "stop_reason": result.stop_reason,
             "seconds": seconds, "cost_history": [float(c) for c in result.cost_history],
             "term_history": [{k: float(v) for k, v in h.items()} for h in result.term_history],
-            "timings": dict(result.timings), **(extra or {})}
+            "timings": dict(result.timings), "log": _json_log(result.log), **(extra or {})}
+
+
+def _json_log(log: list[dict]) -> list[dict]:
+    return [{k: (v if isinstance(v, bool) else float(v)) for k, v in e.items()} for e in log]
 
 
 def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
@@ -162,7 +181,8 @@ def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
     c_match_vel to ``q_ref``."""
     geometry = geometry or ArmGeometry(scene, config.physics.post_variant)
     objective = KinematicObjective(geometry, config.physics, "post", config.baseline.d_safe,
-                                   scene.target, q_ref=q_ref)
+                                   scene.target, q_ref=q_ref,
+                                   knot_time=config.baseline.knot_time)
     result = ilqr.solve(KinematicArm(), objective, q_ref[0], q_ref[1:],
                         _settings(config, config.physics.post_iterations))
     return result.xs, result
@@ -197,11 +217,29 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
                                      force_exclude=held, static_geometry=static)
         augmented = AugmentedPhi(dynamics)
         z0 = np.concatenate([x0, q[0]])
-        result = ilqr.solve(augmented, objective, z0, q[1:], _settings(config, iterations),
+        result = ilqr.solve(augmented, objective, z0, q[1:],
+                            _settings(config, iterations, knot_time),
                             difference=augmented.difference)
         info = {"kept_boxes": list(layout.box_names), "pruning": report.summary(),
                 "phi_failures": dynamics.phi.failures}
     return np.vstack([q[:1], result.us]), result, info
+
+
+def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
+                          variant: str, iterations: int, pool, times):
+    """`physics_stage` from ``paths[0]``; if phi cannot simulate that path, from ``paths[1]``
+    (the baseline's path: phi failed on paths the pre-processing or sphere stage produced
+    with the hydroelastic phi of issue 5, measured on fig7); its info says which."""
+    try:
+        q, result, info = physics_stage(scene, paths[0], config, variant, iterations, pool,
+                                        times)
+        return q, result, {**info, "started_from": "previous stage"}
+    except PhiFailure as exc:
+        if np.array_equal(paths[0], paths[1]):
+            raise
+        q, result, info = physics_stage(scene, paths[1], config, variant, iterations, pool,
+                                        times)
+        return q, result, {**info, "started_from": f"baseline ({exc})"}
 
 
 def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> Candidate:
@@ -217,10 +255,14 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         return replace(candidate, planner="physics",
                        reason=f"no initialization: {candidate.reason or candidate.status}")
     cfg = config.physics
-    q = np.array(candidate.trajectory.q, dtype=float)
+    q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
     tic = time.perf_counter()
-    q, result = preprocess(scene, q, config)
+    try:
+        q, result = preprocess(scene, q, config)
+    except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
+        timings["pre"] = time.perf_counter() - tic
+        return _failed(candidate, f"pre stage: {exc}", timings, details)
     timings["pre"] = time.perf_counter() - tic
     details["stages"]["pre"] = _stage_record(result, timings["pre"])
     stages = (("sphere", "sphere_gripper", min(cfg.sphere_iterations, cfg.iterations)),
@@ -231,8 +273,8 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
             continue
         tic = time.perf_counter()
         try:
-            q, result, info = physics_stage(scene, q, config, variant, iterations, pool,
-                                            candidate.trajectory.times)
+            q, result, info = _phi_stage_or_restart(scene, (q, baseline_q), config, variant,
+                                                    iterations, pool, candidate.trajectory.times)
         except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
             timings[name] = time.perf_counter() - tic
             return _failed(candidate, f"{name} stage: {exc}", timings, details)
@@ -240,7 +282,11 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         details["stages"][name] = _stage_record(result, timings[name], info)
         last = (result, info)
     tic = time.perf_counter()
-    q, result = postprocess(scene, q, config)
+    try:
+        q, result = postprocess(scene, q, config)
+    except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
+        timings["post"] = time.perf_counter() - tic
+        return _failed(candidate, f"post stage: {exc}", timings, details)
     timings["post"] = time.perf_counter() - tic
     details["stages"]["post"] = _stage_record(result, timings["post"])
     if last is not None:
@@ -263,6 +309,9 @@ def check_config(config: Config) -> None:
               ("w_speed", cfg.w_speed >= 0, "non-negative"),
               ("speed_fraction", cfg.speed_fraction > 0, "positive"),
               ("tolerance", cfg.tolerance >= 0, "non-negative"),
+              ("line_search_steps", cfg.line_search_steps >= 1, "at least 1"),
+              ("max_failed_searches", cfg.max_failed_searches >= 1, "at least 1"),
+              ("step_limit_fraction", cfg.step_limit_fraction > 0, "positive"),
               ("post_variant", cfg.post_variant in robot_model.VARIANTS,
                f"one of {', '.join(robot_model.VARIANTS)}"))
     for name, ok, what in checks:

@@ -88,23 +88,25 @@ def _distance_row(c: Contact, columns: int, box_columns: dict[str, int] | None) 
 
 
 def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: float,
-                        obstacles: str, exclude: tuple[str, ...] = ()) -> Term:
+                        exclude: tuple[str, ...] = ()) -> dict[str, Term]:
     """Mean over ``substeps`` configurations on the segment (q_a, q_b] of the penetration of
-    the arm and the ``obstacles`` (boxes fixed), as a Term over (q_a, q_b) (16,): the
-    baseline's approximation of a link's convex hull between two knots (c_static_hull)."""
-    total = Term(0.0, np.zeros(2 * ARM_DIM), np.zeros((2 * ARM_DIM, 2 * ARM_DIM)))
+    the arm and the shelf ("shelf") and of the arm and the boxes but ``exclude`` ("boxes"),
+    boxes fixed, each a Term over (q_a, q_b) (16,): the baseline's approximation of a link's
+    convex hull between two knots (c_static_hull, c_dynamic). One distance query per
+    configuration serves both."""
+    zero = Term(0.0, np.zeros(2 * ARM_DIM), np.zeros((2 * ARM_DIM, 2 * ARM_DIM)))
+    out = {"shelf": zero, "boxes": zero}
     for k in range(1, substeps + 1):
         lam = k / substeps
         q = (1 - lam) * np.asarray(q_a) + lam * np.asarray(q_b)
-        found = [c for c in geometry.contacts(q, None, d_safe, obstacles)
-                 if c.obstacle not in exclude]
-        term = penetration_term(found, d_safe, ARM_DIM)
-        if term.value == 0.0:
-            continue
+        found = [c for c in geometry.contacts(q, None, d_safe) if c.obstacle not in exclude]
         S = np.hstack([(1 - lam) * np.eye(ARM_DIM), lam * np.eye(ARM_DIM)])
-        total = _add(total, Term(term.value, S.T @ term.gradient, S.T @ term.hessian @ S),
-                     1.0 / substeps)
-    return total
+        for kind in out:
+            part = [c for c in found if (c.obstacle == SHELF) == (kind == "shelf")]
+            term = penetration_term(part, d_safe, ARM_DIM)
+            if term.value != 0.0:
+                out[kind] = _add(out[kind], _pull(term, S), 1.0 / substeps)
+    return out
 
 
 def _add(a: Term, b: Term, weight: float = 1.0) -> Term:
@@ -223,7 +225,7 @@ class PhysicsObjective:
             start = ARM_DIM + BOX_TANGENT * i
             m = costs.motion(b[4:7], self.p_start[i])
             motion = _add(motion, _embed(m, [start + 3, start + 4, start + 5], nz))
-            u = costs.upright(box_state_to_pose(b).rotation().matrix())
+            u = costs.upright(box_state_to_pose(b).rotation().matrix(), gauss_newton=True)
             upright = _add(upright, _embed(u, [start, start + 1, start + 2], nz))
         return {"motion": motion.scaled(self.config.w_motion),
                 "upright": upright.scaled(self.config.w_upright)}
@@ -312,30 +314,30 @@ class KinematicObjective:
     c_vel per interval, c_grasp to ``p_pregrasp`` and c_grp_horiz at the end, their Table II
     weights times ``pre_terminal_weight`` (they stand in for the baseline's hard constraint).
     ``mode`` "post": w_static c_static at q^(t+1) + w_match c_match + w_match_vel c_match_vel
-    against ``q_ref`` (T + 1, 8).
+    against ``q_ref`` (T + 1, 8), + w_speed c_speed over knots ``knot_time`` (s) apart (ours:
+    pushing the arm out of the shelf made fig5's plan exceed a joint speed limit, measured).
     """
 
     def __init__(self, geometry: ArmGeometry, config: PhysicsConfig, mode: str, d_safe: float,
                  target: str, q_ref: np.ndarray | None = None,
                  p_pregrasp: np.ndarray | None = None, w_static_hull: float = 80.0,
-                 w_vel: float = 1.0):
+                 w_vel: float = 1.0, knot_time: float = 0.2):
         if mode not in ("pre", "post"):
             raise ValueError(f"mode must be 'pre' or 'post', got {mode!r}")
         self.geometry, self.config, self.mode, self.d_safe = geometry, config, mode, d_safe
         self.target, self.q_ref, self.p_pregrasp = target, q_ref, p_pregrasp
         self.w_static_hull, self.w_vel = w_static_hull, w_vel
+        self._max_step = max_steps(config, knot_time)
 
     def running(self, t: int, q: np.ndarray, u: np.ndarray) -> dict[str, Term]:
         """Weighted Terms over (q, u) (16,) of interval t."""
         cfg, eye = self.config, np.eye(ARM_DIM)
         if self.mode == "pre":
-            n = cfg.hull_substeps
-            return {
-                "static_hull": segment_penetration(self.geometry, q, u, n, self.d_safe,
-                                                   "shelf").scaled(self.w_static_hull),
-                "dynamic": segment_penetration(self.geometry, q, u, n, self.d_safe, "boxes",
-                                               (self.target,)).scaled(cfg.w_dynamic),
-                "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
+            hull = segment_penetration(self.geometry, q, u, cfg.hull_substeps, self.d_safe,
+                                       (self.target,))
+            return {"static_hull": hull["shelf"].scaled(self.w_static_hull),
+                    "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
+                    "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
         found = self.geometry.contacts(u, None, self.d_safe, "shelf")
         static = penetration_term(found, self.d_safe, ARM_DIM)
         on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
@@ -343,7 +345,8 @@ class KinematicObjective:
         mvel = costs.match_velocity(u, q, self.q_ref[t + 1], self.q_ref[t])
         return {"static": _pull(static, on_u).scaled(cfg.w_static),
                 "match": _pull(match, on_u).scaled(cfg.w_match),
-                "match_vel": _reorder(mvel).scaled(cfg.w_match_vel)}
+                "match_vel": _reorder(mvel).scaled(cfg.w_match_vel),
+                "speed": speed_limit(q, u, self._max_step).scaled(cfg.w_speed)}
 
     def terminal(self, q: np.ndarray) -> dict[str, Term]:
         """Weighted Terms over q (8,) at the last knot ("pre" only)."""

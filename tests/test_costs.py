@@ -101,3 +101,15 @@ def test_grasp_and_force():
     _check(grasp_of, np.concatenate([RNG.standard_normal(7), target]))
     F = RNG.standard_normal((6, 4))
     _check(lambda x: costs.force(F @ x, F), RNG.standard_normal(4))
+
+
+@pytest.mark.parametrize("tilt", [0.005, 0.3, 1.2, 2.8])
+def test_upright_gauss_newton_hessian_is_psd_with_the_exact_gradient(tilt):
+    axis = np.array([np.cos(0.7), np.sin(0.7), 0.0])
+    R0 = Rotation.from_rotvec(tilt * axis).as_matrix()
+    exact, gn = costs.upright(R0), costs.upright(R0, gauss_newton=True)
+    assert gn.value == exact.value
+    np.testing.assert_array_equal(gn.gradient, exact.gradient)
+    assert np.all(np.linalg.eigvalsh(gn.hessian) >= -1e-12)
+    if tilt > 1.0:  # far from upright the exact Hessian is indefinite, the reason for GN
+        assert np.linalg.eigvalsh(exact.hessian).min() < 0

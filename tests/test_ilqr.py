@@ -204,3 +204,158 @@ def test_manifold_states_use_the_difference_function():
     # Optimum of sum u^2/2 + w/2 (sum u - goal)^2: every u = w goal / (1 + w T).
     np.testing.assert_allclose(result.us[:, 0], w * goal / (1 + w * T), atol=1e-6)
     assert np.all(np.diff(result.cost_history) <= 0)
+
+
+# ----------------------------------------------------------------------------- inexact derivatives
+
+
+def test_log_predicts_the_exact_decrease_on_lqr():
+    """On an LQR problem the quadratic model is exact: the logged predicted decrease of the
+    full step equals the actual one."""
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=1)
+    result = solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)),
+                   ILQRSettings(reg_init=0.0, reg_min=0.0))
+    first = result.log[0]
+    assert first["alpha"] == 1.0 and first["tries"] == 1 and not first["open_loop"]
+    assert first["actual"] == pytest.approx(first["expected"], rel=1e-9)
+    assert first["actual"] == pytest.approx(result.cost_history[0] - result.cost_history[1])
+
+
+def test_trust_region_bounds_every_step_and_still_reaches_the_optimum():
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=2)
+    x0 = 5.0 * x0  # far from the optimum, so that the first steps are clipped
+    limit = 0.5
+    settings = ILQRSettings(max_iterations=300, tolerance=1e-14, reg_init=0.0, reg_min=0.0,
+                            step_limit=(limit, limit))
+    result = solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)), settings)
+    expected = _batch_lqr(A, B, Q, R, Qf, x0, T)
+    assert np.max(np.abs(expected)) > 3 * limit, "the unconstrained step must be clipped"
+    np.testing.assert_allclose(result.us, expected, atol=1e-6)
+    assert result.iterations > 3
+    assert np.all(np.diff(result.cost_history) <= 0)
+    # Every accepted iterate moved each control by at most the limit.
+    us_prev = np.zeros((T, 2))
+    rerun = solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, us_prev,
+                  ILQRSettings(max_iterations=1, reg_init=0.0, reg_min=0.0,
+                               step_limit=(limit, limit)))
+    assert np.max(np.abs(rerun.us - us_prev)) <= limit + 1e-12
+    assert np.max(np.abs(rerun.us - us_prev)) == pytest.approx(limit)
+
+
+class WrongA(LinearDynamics):
+    """True dynamics A, B; linearize reports A with large errors (as phi's finite differences
+    in contact), B exact."""
+
+    def __init__(self, A, B, error):
+        super().__init__(A, B)
+        self.error = error
+
+    def linearize(self, xs, us):
+        A, B = super().linearize(xs, us)
+        return A + self.error, B
+
+
+def test_open_loop_fallback_makes_progress_with_a_wrong_state_jacobian():
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=3)
+    rng = np.random.default_rng(3)
+    dyn = WrongA(A, B, 1.5 * rng.standard_normal(A.shape))
+    cost = QuadraticCost(Q, R, Qf)
+    base = ILQRSettings(max_iterations=15, reg_init=1e-6, line_search_steps=8)
+    plain = solve(dyn, cost, x0, np.zeros((T, 2)), base)
+    fallback = solve(dyn, cost, x0, np.zeros((T, 2)),
+                     ILQRSettings(**{**base.__dict__, "open_loop_fallback": True}))
+    for result in (plain, fallback):
+        assert np.all(np.diff(result.cost_history) <= 0)
+    assert any(e["open_loop"] for e in fallback.log), "the fallback was used"
+    assert not any(e["open_loop"] for e in plain.log)
+    assert fallback.cost < fallback.cost_history[0]
+    optimum = sum(cost.terms(rollout(LinearDynamics(A, B), x0, _batch_lqr(A, B, Q, R, Qf, x0, T)),
+                             _batch_lqr(A, B, Q, R, Qf, x0, T)).values())
+    assert fallback.cost >= optimum - 1e-9
+
+
+def test_adaptive_step_starts_near_the_last_accepted_step():
+    settings = ILQRSettings(max_iterations=40, adaptive_step=True)
+    result = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)
+    accepted = [e["alpha"] for e in result.log if e["alpha"] > 0]
+    assert accepted
+    for previous, current in zip(accepted, accepted[1:], strict=False):
+        assert current <= min(1.0, 2.0 * previous)
+    assert np.all(np.diff(result.cost_history) <= 0)
+    assert result.cost < 0.01 * result.cost_history[0]
+
+
+def test_bounded_controls_reach_the_constrained_optimum_with_nonnegative_predictions():
+    """A one-step problem with box bounds: the constrained optimum from L-BFGS-B."""
+    from scipy.optimize import minimize
+
+    A, B, Q, R, Qf, x0, _ = _lqr_problem(seed=4, T=1)
+    B = np.eye(4)[:, :2] + 0.3 * B  # well-conditioned inputs
+    dyn, cost = LinearDynamics(A, B), QuadraticCost(Q, R, Qf)
+    free = _batch_lqr(A, B, Q, R, Qf, x0, 1)[0]
+    hi = 0.5 * np.abs(free)  # every bound active at the optimum
+    lo = -hi
+
+    def objective(u):
+        return sum(cost.terms(rollout(dyn, x0, u[None]), u[None]).values())
+
+    known = minimize(objective, np.zeros(2), bounds=list(zip(lo, hi, strict=True)),
+                     method="L-BFGS-B", options={"ftol": 1e-15, "gtol": 1e-12}).x
+    result = solve(dyn, cost, x0, np.zeros((1, 2)),
+                   ILQRSettings(max_iterations=20, u_min=tuple(lo), u_max=tuple(hi),
+                                tolerance=1e-14))
+    np.testing.assert_allclose(result.us[0], known, atol=1e-6)
+    assert all(e["expected"] >= 0 for e in result.log)
+
+
+class Unimprovable(LinearDynamics):
+    """Reports a linearisation whose model step always raises the true cost: B's sign
+    flipped."""
+
+    def linearize(self, xs, us):
+        A, B = super().linearize(xs, us)
+        return A, -B
+
+
+def test_failed_line_searches_stop_the_solver():
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=5)
+    settings = ILQRSettings(max_iterations=10, max_failed_searches=2, line_search_steps=3)
+    result = solve(Unimprovable(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)), settings)
+    assert result.stop_reason == "line_search_failed" and result.iterations == 0
+    assert len(result.log) == 2 and all(e["tries"] == 3 and e["alpha"] == 0 for e in result.log)
+    assert result.log[1]["mu"] == pytest.approx(10 * result.log[0]["mu"])
+
+
+class Integrator:
+    def step(self, t, x, u):
+        return x + u
+
+    def linearize(self, xs, us):
+        T = len(us)
+        return np.ones((T, 1, 1)), np.ones((T, 1, 1))
+
+
+class FlatDistance:
+    """|x_T - 1| smoothed, with a curvature far too small (as a linear penalty's Gauss-Newton
+    Hessian): the model's minimum lies far below zero."""
+
+    def terms(self, xs, us):
+        return {"distance": float(np.sqrt((xs[-1, 0] - 1.0) ** 2 + 1e-6))}
+
+    def quadratize(self, xs, us):
+        T = len(us)
+        r = xs[-1, 0] - 1.0
+        return Expansion(lx=np.zeros((T, 1)), lu=np.zeros((T, 1)), lxx=np.zeros((T, 1, 1)),
+                         luu=np.zeros((T, 1, 1)), lux=np.zeros((T, 1, 1)),
+                         vx=np.array([r / np.sqrt(r**2 + 1e-6)]), vxx=np.array([[1e-6]]))
+
+
+def test_cost_floor_rejects_models_predicting_below_it_without_a_rollout():
+    settings = ILQRSettings(max_iterations=30, cost_floor=0.0, reg_init=1e-6)
+    result = solve(Integrator(), FlatDistance(), np.zeros(1), np.zeros((3, 1)), settings)
+    skipped = [e for e in result.log if e["tries"] == 0 and e["expected"] > 1.0]
+    tried = [e for e in result.log if e["tries"] > 0]
+    assert skipped, "the first models predict far below 0 and are skipped"
+    assert tried and all(e["expected"] <= result.cost_history[0] for e in tried)
+    assert np.all(np.diff(result.cost_history) <= 0)
+    assert result.cost < 0.05 * result.cost_history[0]

@@ -307,7 +307,6 @@ class PhysicsConfig:
     # the feedback amplifies the finite-difference errors of A in contact (issue 6)
 
 
-
 @dataclass(frozen=True)
 class VizConfig:
     """Meshcat replays of plans (replay.py; issue 8): all ours."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import types
 import typing
 from pathlib import Path
@@ -23,6 +24,8 @@ from typing import Any, Literal, TypeVar, get_args, get_origin, get_type_hints
 import yaml
 
 T = TypeVar("T")
+
+_YAML12_FLOAT = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")  # 1e-6, 5E5, 2.
 
 
 class InputError(ValueError):
@@ -92,6 +95,8 @@ class _Converter:
                 self.fail(field, f"must be an integer, got {_describe(value)}")
             return value
         if tp is float:
+            if isinstance(value, str) and _YAML12_FLOAT.fullmatch(value.strip()):
+                value = float(value)  # PyYAML (YAML 1.1) reads 1e-6 as a string
             if isinstance(value, bool) or not isinstance(value, int | float):
                 self.fail(field, f"must be a number, got {_describe(value)}")
             if not math.isfinite(value):

@@ -44,3 +44,17 @@ def test_bad_config_files(tmp_path, text, field):
 def test_bad_overrides(item):
     with pytest.raises(ConfigError):
         load_config(None, [item])
+
+
+def test_scientific_notation_is_a_number_in_files_and_overrides(tmp_path):
+    """PyYAML (YAML 1.1) reads 1e-4 without a dot as a string; float fields take it."""
+    path = tmp_path / "c.yaml"
+    path.write_text("dynamics:\n  fd_step: 1e-5\nworld:\n  hydroelastic_modulus: 5E5\n")
+    config = load_config(path, ["physics.w_force=1e-2"])
+    assert config.dynamics.fd_step == 1e-5
+    assert config.world.hydroelastic_modulus == 5e5
+    assert config.physics.w_force == 0.01
+    with pytest.raises(ConfigError):  # integers stay integers
+        load_config(None, ["physics.iterations=1e1"])
+    with pytest.raises(ConfigError):  # and words are not numbers
+        load_config(None, ["physics.w_force=1e-2x"])

@@ -242,6 +242,13 @@ class DynamicsConfig:
     # lift them back; box speeds fall to 2e-7 m/s at 2 s and 2e-9 m/s at 3 s
     step_cache_size: int = 512  # traced steps remembered for linearize (2 iLQR horizons of
     # line search); ours
+    max_box_speed: float = 5.0  # m/s: a box's translational speed is scaled down to this
+    # after every SAP sub-step; ours (a numerical guard: pushed boxes move < 1 m/s, a box
+    # falling 0.75 m lands at 3.8 m/s). See max_box_spin
+    max_box_spin: float = 30.0  # rad/s: likewise its angular speed; ours: a box toppling in
+    # a 40 ms sub-step into the board was thrown out at 180 rad/s and Drake's explicit
+    # gyroscopic term then spun it up to 7e3 rad/s in 4 sub-steps, and to NaN (fig8's
+    # straight reach, measured); a toppling 24 cm box turns at ~10 rad/s
     divergence_limit: float = 1.0e6  # |number| in a box state (m, m/s, rad/s) beyond which
     # a step counts as diverged (NaN, a failure); ours: a diverged SAP step overflowed the
     # quaternion's norm to a zero quaternion that Drake then aborted on (measured)

@@ -307,6 +307,8 @@ def check_config(config: DynamicsConfig) -> None:
         ("prune_samples_per_knot", config.prune_samples_per_knot >= 1, "must be at least 1"),
         ("settle_time", config.settle_time >= 0, "must be >= 0"),
         ("step_cache_size", config.step_cache_size >= 1, "must be at least 1"),
+        ("max_box_speed", config.max_box_speed > 0, "must be positive"),
+        ("max_box_spin", config.max_box_spin > 0, "must be positive"),
         ("divergence_limit", config.divergence_limit > 0, "must be positive"),
     ]
     for name, ok, reason in problems:
@@ -354,6 +356,7 @@ class Phi:
         self._robot_v = np.array([self.plant.GetJointByName(n, self.world.robot).velocity_start()
                                   for n in ROBOT_JOINTS])
         self._box_q, self._box_v = self._box_indices()
+        self._nq = self.plant.num_positions()  # v starts here in the discrete state
         self._geometry_nodes = self._map_geometry_to_nodes()
         self._contact_port = self.plant.get_contact_results_output_port()
         self.failures = 0
@@ -475,7 +478,7 @@ class Phi:
                 state = self.plant.EvalUniquePeriodicDiscreteUpdate(self.context)
                 if forces:  # the same cached SAP solve as the update
                     f += self.contact_forces()
-                self.context.SetDiscreteState(state.value())
+                self.context.SetDiscreteState(self._speed_capped(state.value()))
             if trace:
                 edges |= self.interactions()
         except RuntimeError:
@@ -486,6 +489,24 @@ class Phi:
             self.failures += 1
             return np.full(self.layout.nx, np.nan), edges, f * np.nan
         return x_next, edges, f / n
+
+    def _speed_capped(self, values: np.ndarray) -> np.ndarray:
+        """The plant's discrete state [q, v] with every kept box's angular and translational
+        speed scaled down to ``max_box_spin`` / ``max_box_speed`` (continuous; a no-op below
+        them): keeps a violently thrown box finite (see the config's comment)."""
+        if not len(self._box_v):
+            return values
+        v = values[self._nq + self._box_v]  # (n, 6): w_WB, v_WB
+        cfg = self.spec.config
+        spin = np.linalg.norm(v[:, :3], axis=1)
+        speed = np.linalg.norm(v[:, 3:], axis=1)
+        if np.all(spin <= cfg.max_box_spin) and np.all(speed <= cfg.max_box_speed):
+            return values
+        values = values.copy()
+        v[:, :3] *= np.minimum(1.0, cfg.max_box_spin / np.maximum(spin, 1e-300))[:, None]
+        v[:, 3:] *= np.minimum(1.0, cfg.max_box_speed / np.maximum(speed, 1e-300))[:, None]
+        values[self._nq + self._box_v] = v
+        return values
 
     def contact_forces(self) -> np.ndarray:
         """Contact forces of the SAP step from the current plant state, per node (N, shape

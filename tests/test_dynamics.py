@@ -201,3 +201,24 @@ def test_bad_dynamics_config_names_the_field(scene10, field, value):
     config = DynamicsConfig(**{field: value})
     with pytest.raises(ConfigError, match=f"dynamics.{field}"):
         Phi(make_spec(scene10, ["target"], config=config))
+
+
+def test_thrown_boxes_are_capped_to_the_configured_speeds(scene10, pruned10):
+    """A box thrown at 1000 rad/s and 100 m/s comes out of a knot finite, within the caps;
+    boxes below the caps step exactly as without them."""
+    spec, _, phi, x0, xs = pruned10
+    layout = spec.layout
+    x = x0.copy()
+    box = layout.boxes(x)  # a view into x
+    box[0, 7:10] = (0.0, 0.0, 1000.0)
+    box[0, 10:13] = (100.0, 0.0, 0.0)
+    x_next = phi.step(x, x[:ARM_DIM])
+    assert np.all(np.isfinite(x_next))
+    thrown = layout.boxes(x_next)[0]
+    assert np.linalg.norm(thrown[7:10]) <= spec.config.max_box_spin + 1e-9
+    assert np.linalg.norm(thrown[10:13]) <= spec.config.max_box_speed + 1e-9
+    from dataclasses import replace
+    uncapped = Phi(replace(spec, config=replace(spec.config, max_box_speed=1e9,
+                                                max_box_spin=1e9)))
+    np.testing.assert_array_equal(uncapped.step(xs[3], xs[4][:ARM_DIM]),
+                                  phi.step(xs[3], xs[4][:ARM_DIM]))

@@ -189,11 +189,14 @@ def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
 
 
 def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
-                  pool: WorkerPool | None = None, times: np.ndarray | None = None
+                  pool: WorkerPool | None = None, times: np.ndarray | None = None,
+                  alternatives: tuple[np.ndarray, ...] = ()
                   ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
     """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
     default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
-    stage used (kept boxes, pruning, phi statistics)."""
+    stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
+    shape and start), iLQR starts from whichever of ``q`` and them has the lowest objective in
+    this stage's phi (pruned to ``q``); info's ``start_objectives`` lists them."""
     knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
     spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
                                     variant)
@@ -210,30 +213,47 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
     static = ArmGeometry(scene, "capsules") if variant == "sphere_gripper" else None
     with PhiDynamics(spec, pool) as dynamics:
         x0 = dynamics.phi.settle(initial_state(layout, q[0], scene_box_states(scene)))
-        if not np.all(np.isfinite(dynamics.rollout(x0, q[1:]))):
-            raise PhiFailure("phi failed on the initial rollout")
         objective = PhysicsObjective(ArmGeometry(scene, variant), layout, config.physics, x0,
                                      scene.target, knot_time, config.baseline.d_safe,
                                      force_exclude=held, static_geometry=static)
         augmented = AugmentedPhi(dynamics)
         z0 = np.concatenate([x0, q[0]])
+        starts = [q, *alternatives]
+        values = [_path_objective(augmented, objective, z0, path) for path in starts]
+        if not np.any(np.isfinite(values)):
+            raise PhiFailure("phi failed on the initial rollout")
+        q = starts[int(np.argmin(values))]
         result = ilqr.solve(augmented, objective, z0, q[1:],
                             _settings(config, iterations, knot_time),
                             difference=augmented.difference)
         info = {"kept_boxes": list(layout.box_names), "pruning": report.summary(),
-                "phi_failures": dynamics.phi.failures}
+                "phi_failures": dynamics.phi.failures,
+                "start_objectives": [float(v) for v in values]}
     return np.vstack([q[:1], result.us]), result, info
 
 
+def _path_objective(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.ndarray,
+                    q: np.ndarray) -> float:
+    """The stage's objective of the knot path ``q`` rolled out from z0 (inf where phi fails)."""
+    zs = ilqr.rollout(dynamics, z0, q[1:])
+    if not np.all(np.isfinite(zs)):
+        return float("inf")
+    return float(sum(objective.terms(zs, q[1:]).values()))
+
+
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
-                          variant: str, iterations: int, pool, times):
-    """`physics_stage` from ``paths[0]``; if phi cannot simulate that path, from ``paths[1]``
-    (the baseline's path: phi failed on paths the pre-processing or sphere stage produced
-    with the hydroelastic phi of issue 5, measured on fig7); its info says which."""
+                          variant: str, iterations: int, pool, times,
+                          alternatives: tuple[np.ndarray, ...] = ()):
+    """`physics_stage` from ``paths[0]`` (or the best of ``alternatives``, see there); if phi
+    cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
+    the pre-processing or sphere stage produced with the hydroelastic phi of issue 5, measured
+    on fig7); its info says which."""
     try:
         q, result, info = physics_stage(scene, paths[0], config, variant, iterations, pool,
-                                        times)
-        return q, result, {**info, "started_from": "previous stage"}
+                                        times, alternatives)
+        best = int(np.argmin(info["start_objectives"]))
+        return q, result, {**info, "started_from": "previous stage" if best == 0 else
+                           f"alternative {best}"}
     except PhiFailure as exc:
         if np.array_equal(paths[0], paths[1]):
             raise
@@ -265,6 +285,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         return _failed(candidate, f"pre stage: {exc}", timings, details)
     timings["pre"] = time.perf_counter() - tic
     details["stages"]["pre"] = _stage_record(result, timings["pre"])
+    q_pre = q
     stages = (("sphere", "sphere_gripper", min(cfg.sphere_iterations, cfg.iterations)),
               ("full", "capsules", cfg.iterations - min(cfg.sphere_iterations, cfg.iterations)))
     last = None
@@ -273,8 +294,13 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
             continue
         tic = time.perf_counter()
         try:
+            # The full stage may start from the pre-processed path instead of the sphere
+            # stage's: that stage's phi had no target and another gripper, and its path knocked
+            # the target 14 cm away in the full stage's phi (fig6, measured).
+            others = (q_pre,) if name == "full" and q is not q_pre else ()
             q, result, info = _phi_stage_or_restart(scene, (q, baseline_q), config, variant,
-                                                    iterations, pool, candidate.trajectory.times)
+                                                    iterations, pool, candidate.trajectory.times,
+                                                    others)
         except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
             timings[name] = time.perf_counter() - tic
             return _failed(candidate, f"{name} stage: {exc}", timings, details)

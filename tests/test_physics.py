@@ -269,6 +269,12 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate):
         assert all(isinstance(e["alpha"], float) and e["alpha"] <= 1.0 for e in log)
         assert sum(e["alpha"] > 0 for e in log) == stages[name]["iterations"]
     assert "target" not in stages["sphere"]["kept_boxes"]  # out of phi in the sphere stage
+    # the full stage starts from the better of the sphere stage's and the pre-processed path
+    starts = stages["full"]["start_objectives"]
+    assert len(starts) == 2 and min(starts) < float("inf")
+    assert stages["full"]["cost_history"][0] == pytest.approx(min(starts), rel=1e-12)
+    assert stages["full"]["started_from"] == ("previous stage" if starts[0] <= starts[1]
+                                              else "alternative 1")
     feedback = plan.details["feedback"]
     nz = 8 + 12 * len(feedback["boxes"]) + 8
     assert np.asarray(feedback["K"]).shape == (fig5_candidate.trajectory.num_knots - 1, 8, nz)
@@ -299,11 +305,11 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
 
     calls = []
 
-    def stage(scene, q, config, variant, iterations, pool, times):
+    def stage(scene, q, config, variant, iterations, pool, times, alternatives=()):
         calls.append(q)
         if q[0, 0] == 1.0:  # phi cannot simulate the previous stage's path
             raise physics.PhiFailure("phi failed on the initial rollout")
-        return q, "result", {"kept_boxes": []}
+        return q, "result", {"kept_boxes": [], "start_objectives": [1.0]}
 
     monkeypatch.setattr(physics, "physics_stage", stage)
     previous, baseline = np.ones((3, 8)), np.zeros((3, 8))

@@ -242,6 +242,11 @@ class DynamicsConfig:
     # lift them back; box speeds fall to 2e-7 m/s at 2 s and 2e-9 m/s at 3 s
     step_cache_size: int = 512  # traced steps remembered for linearize (2 iLQR horizons of
     # line search); ours
+    shelf_force_allowance: float = 1.5  # x a box's weight: its contact force with the shelf
+    # counts in phi's force vector (c_force) only beyond this; ours: at rest the shelf carries
+    # 1x, pushes add some; a box pressed into the shelf (Sec. III's kinematic failure, 50 N in
+    # the evaluation) is what c_force must see - without it fig8's physics plan jammed a box
+    # into the board with 58-102 N (measured in Bullet)
     max_box_speed: float = 5.0  # m/s: a box's translational speed is scaled down to this
     # after every SAP sub-step; ours (a numerical guard: pushed boxes move < 1 m/s, a box
     # falling 0.75 m lands at 3.8 m/s). See max_box_spin

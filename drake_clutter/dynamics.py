@@ -68,6 +68,7 @@ ARM_DIM = 8  # TRAJECTORY_JOINTS: 7 arm joints + gripper opening
 NU = 8  # controls: the arm's next configuration (TRAJECTORY_JOINTS)
 BOX_DIM = 13  # quaternion wxyz, p_WB, w_WB, v_WB
 BOX_TANGENT = 12  # dtheta, dp, dw, dv
+GRAVITY = 9.81  # m/s^2, Drake's default
 ARM_NODE = 0  # node of the arm in interaction graphs; box i is node i + 1
 
 
@@ -307,6 +308,7 @@ def check_config(config: DynamicsConfig) -> None:
         ("prune_samples_per_knot", config.prune_samples_per_knot >= 1, "must be at least 1"),
         ("settle_time", config.settle_time >= 0, "must be >= 0"),
         ("step_cache_size", config.step_cache_size >= 1, "must be at least 1"),
+        ("shelf_force_allowance", config.shelf_force_allowance >= 0, "must be >= 0"),
         ("max_box_speed", config.max_box_speed > 0, "must be positive"),
         ("max_box_spin", config.max_box_spin > 0, "must be positive"),
         ("divergence_limit", config.divergence_limit > 0, "must be positive"),
@@ -357,6 +359,8 @@ class Phi:
                                   for n in ROBOT_JOINTS])
         self._box_q, self._box_v = self._box_indices()
         self._nq = self.plant.num_positions()  # v starts here in the discrete state
+        weights = [GRAVITY * spec.scene.box(n).mass for n in self.layout.box_names]
+        self._shelf_allowance = spec.config.shelf_force_allowance * np.array([0.0, *weights])
         self._geometry_nodes = self._map_geometry_to_nodes()
         self._contact_port = self.plant.get_contact_results_output_port()
         self.failures = 0
@@ -512,12 +516,13 @@ class Phi:
         """Contact forces of the SAP step from the current plant state, per node (N, shape
         (1 + n,)): entry 0 the arm, entry i + 1 kept box i; each sums the magnitudes |f| of the
         contact forces (normal and friction together) between that node and every other object
-        (arm, kept or frozen box) - Table I's forces between pairs of objects. Contacts with the
-        shelf are left out: they carry the boxes' weight at every knot (ours); so are a
-        body's internal ones. A pair appears in both its nodes' entries. `step_full` averages
-        this over a knot's sub-steps."""
+        (arm, kept or frozen box) - Table I's forces between pairs of objects. A box's contacts
+        with the shelf count only beyond ``shelf_force_allowance`` x its weight (they carry
+        the weight at every knot; beyond it the box is pressed into the shelf, Sec. III's
+        kinematic failure); a body's internal contacts are left out. A pair appears in both
+        its nodes' entries. `step_full` averages this over a knot's sub-steps."""
         results = self._contact_port.Eval(self.context)
-        f = np.zeros(self.num_forces)
+        f, shelf = np.zeros(self.num_forces), np.zeros(self.num_forces)
         pairs = [(info.point_pair().id_A, info.point_pair().id_B, info.contact_force())
                  for info in map(results.point_pair_contact_info,
                                  range(results.num_point_pair_contacts()))]
@@ -527,13 +532,18 @@ class Phi:
                                   range(results.num_hydroelastic_contacts()))]
         for id_a, id_b, force in pairs:
             a, b = self._geometry_nodes.get(id_a), self._geometry_nodes.get(id_b)
-            if a is None or b is None or a == b:
+            if a == b:
                 continue
             magnitude = float(np.linalg.norm(force))
+            if a is None or b is None:  # the shelf (or the robot's welded base)
+                box = b if a is None else a
+                if box is not None and box > ARM_NODE:
+                    shelf[box] += magnitude
+                continue
             for node in (a, b):
                 if node >= 0:
                     f[node] += magnitude
-        return f
+        return f + np.maximum(0.0, shelf - self._shelf_allowance)
 
     @property
     def contact_margin(self) -> float:

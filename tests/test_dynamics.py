@@ -222,3 +222,19 @@ def test_thrown_boxes_are_capped_to_the_configured_speeds(scene10, pruned10):
                                                 max_box_spin=1e9)))
     np.testing.assert_array_equal(uncapped.step(xs[3], xs[4][:ARM_DIM]),
                                   phi.step(xs[3], xs[4][:ARM_DIM]))
+
+
+def test_a_box_pressed_into_the_shelf_has_a_force_a_resting_one_has_none(pruned10):
+    """c_force's vector: a box's shelf contact counts only beyond shelf_force_allowance x its
+    weight - zero at rest, positive when it is driven into the board."""
+    spec, _, phi, x0, _ = pruned10
+    hold = x0[:ARM_DIM]
+    _, f_rest = phi.step_forces(x0, hold)
+    far = [i for i in range(spec.layout.num_boxes)  # boxes the parked arm does not touch
+           if f_rest[i + 1] == 0.0]
+    assert far, f_rest
+    x = x0.copy()
+    spec.layout.boxes(x)[far[0], 10:13] = (0.0, 0.0, -1.0)  # m/s, down into the board
+    _, f_pressed = phi.step_forces(x, hold)
+    assert f_pressed[far[0] + 1] > 0.0
+    assert phi.spec.config.shelf_force_allowance > 1.0  # the weight itself is never a cost

@@ -320,6 +320,10 @@ class PhysicsConfig:
     max_failed_searches: int = 3  # a stage stops after this many failed line searches in one
     # iteration (mu x 10 after each); ours: the fig5 phi stage spent 8 failed searches (96
     # rollouts, most of its 854 s) before its regulariser went far enough (measured)
+    max_spectral_radius: float = 1.0  # cap on the spectral radius of phi's box-to-box
+    # Jacobian per knot in the phi stages (physics.cap_spectral_radius); ours: toppling boxes
+    # are locally unstable, and uncapped radii of 2-230 made fig8's costate reach 1e12
+    # (measured); 1 leaves resting and sliding boxes (radius 1) as they are; 1e9: no cap
     open_loop_fallback: bool = True  # phi stages retry a failed line search with K = 0; ours:
     # the feedback amplifies the finite-difference errors of A in contact (issue 6)
 

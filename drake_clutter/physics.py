@@ -92,9 +92,10 @@ class AugmentedPhi:
     [dx, dq^(t-1)]; ``linearize`` returns tangent Jacobians, ``difference`` the tangent
     difference (both for `ilqr.solve`)."""
 
-    def __init__(self, dynamics: PhiDynamics):
+    def __init__(self, dynamics: PhiDynamics, max_spectral_radius: float = float("inf")):
         self.dynamics, self.layout = dynamics, dynamics.layout
         self.nx, self.ndx = self.layout.nx, self.layout.ndx
+        self.max_spectral_radius = max_spectral_radius
 
     def step(self, t: int, z: np.ndarray, u: np.ndarray) -> np.ndarray:
         """[phi(x, u), q^t]; all NaN when phi's result is not a state (non-finite, or a
@@ -108,6 +109,7 @@ class AugmentedPhi:
     def linearize(self, zs: np.ndarray, us: np.ndarray):
         """A (T, nz, nz), B (T, nz, 8) in tangent coordinates."""
         A_x, B_x = self.dynamics.linearize_tangent(zs[:, :self.nx], us)
+        cap_spectral_radius(A_x, self.max_spectral_radius)
         T, nz = len(us), self.ndx + ARM_DIM
         A, B = np.zeros((T, nz, nz)), np.zeros((T, nz, ARM_DIM))
         A[:, :self.ndx, :self.ndx] = A_x
@@ -119,6 +121,29 @@ class AugmentedPhi:
         """z_a (-) z_b in tangent coordinates."""
         return np.concatenate([self.layout.difference(z_a[:self.nx], z_b[:self.nx]),
                                z_a[self.nx:] - z_b[self.nx:]])
+
+
+def cap_spectral_radius(A: np.ndarray, cap: float) -> np.ndarray:
+    """Scales, in place, the box-to-box block of every tangent Jacobian A_t (T, ndx, ndx) whose
+    spectral radius exceeds ``cap`` down to it; returns the radii before. The arm's rows are
+    exact (zero: the arm is kinematic), so that block's radius is A_t's.
+
+    Why: a box toppling or rocking on an edge is locally unstable (an inverted pendulum grows
+    by e^(sqrt(g/l) 0.2 s) ~ 9 a knot), and phi's A_t had radii of 2-230 on fig8 (the same
+    at FD steps 1e-6 to 1e-3: physics, not noise). Through 29 knots the costate V_x reached
+    1e12 and every backward pass predicted more decrease than the whole objective, up to mu =
+    1e10 (measured). Capped at 1, perturbations are modelled as persisting rather than
+    growing; the line search on phi itself still accepts only real decreases."""
+    radii = np.zeros(len(A))
+    boxes = slice(ARM_DIM, A.shape[1])
+    for t in range(len(A)):
+        block = A[t, boxes, boxes]
+        if block.size == 0 or not np.all(np.isfinite(block)):
+            continue
+        radii[t] = float(np.max(np.abs(np.linalg.eigvals(block))))
+        if radii[t] > cap:
+            A[t, boxes, boxes] *= cap / radii[t]
+    return radii
 
 
 def control_bounds() -> tuple[tuple[float, ...], tuple[float, ...]]:
@@ -216,7 +241,7 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
         objective = PhysicsObjective(ArmGeometry(scene, variant), layout, config.physics, x0,
                                      scene.target, knot_time, config.baseline.d_safe,
                                      force_exclude=held, static_geometry=static)
-        augmented = AugmentedPhi(dynamics)
+        augmented = AugmentedPhi(dynamics, config.physics.max_spectral_radius)
         z0 = np.concatenate([x0, q[0]])
         starts = [q, *alternatives]
         values = [_path_objective(augmented, objective, z0, path) for path in starts]
@@ -338,6 +363,7 @@ def check_config(config: Config) -> None:
               ("line_search_steps", cfg.line_search_steps >= 1, "at least 1"),
               ("max_failed_searches", cfg.max_failed_searches >= 1, "at least 1"),
               ("step_limit_fraction", cfg.step_limit_fraction > 0, "positive"),
+              ("max_spectral_radius", cfg.max_spectral_radius > 0, "positive"),
               ("post_variant", cfg.post_variant in robot_model.VARIANTS,
                f"one of {', '.join(robot_model.VARIANTS)}"))
     for name, ok, what in checks:

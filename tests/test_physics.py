@@ -400,3 +400,27 @@ def test_plan_command_writes_both_planners(tmp_path, capsys):
     assert candidates[0].alpha == candidates[1].alpha
     assert doc["planner"] == "both" and doc["config"]["physics"]["iterations"] == 0
     assert "cost start" in capsys.readouterr().out
+
+
+def test_unstable_box_jacobians_are_capped_and_stable_ones_kept():
+    """cap_spectral_radius scales a box-to-box block with radius 9 (a toppling box) down to the
+    cap, leaves a resting/sliding box's (radius 1: p' = p + dt v) and the arm's columns as they
+    are, and returns the radii it found."""
+    from drake_clutter.physics import cap_spectral_radius
+
+    ndx = 8 + 12
+    rng = np.random.default_rng(0)
+    sliding = np.eye(ndx)
+    sliding[:8] = 0.0  # the kinematic arm's rows
+    sliding[8 + 3:8 + 6, 8 + 9:8 + 12] = 0.2 * np.eye(3)  # dp' = dp + dt dv
+    sliding[8:, :8] = rng.normal(size=(12, 8))  # the arm pushes the box
+    toppling = sliding.copy()
+    toppling[8:11, 8:11] = 9.0 * np.eye(3)  # a tilt that grows 9x in a knot
+    A = np.stack([sliding, toppling])
+    before = A.copy()
+    radii = cap_spectral_radius(A, 1.0)
+    np.testing.assert_allclose(radii, [1.0, 9.0])
+    np.testing.assert_array_equal(A[0], before[0])
+    assert max(abs(np.linalg.eigvals(A[1, 8:, 8:]))) == pytest.approx(1.0)
+    np.testing.assert_array_equal(A[1, :, :8], before[1, :, :8])
+    np.testing.assert_allclose(A[1, 8:, 8:], before[1, 8:, 8:] / 9.0)

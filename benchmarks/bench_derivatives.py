@@ -3,7 +3,8 @@
 For bookshelf scenes with 1, 5, 10, 15, 20, 25 boxes (seed 0: the same target at every level)
 and a baseline-like straight reach (tests/reach_paths.py; 30 knots, 0.2 s apart) it prints:
 kept boxes, phi's time per knot (``substeps`` SAP steps, contact forces included), phi
-evaluations per knot against brute force's ndx + nu + 1 on the whole scene, the whole horizon
+evaluations per finite-differenced knot against brute force's ndx + nu + 1 on the whole scene,
+the knots differentiated by AutoDiffXd instead (``dynamics.derivative_method``), the whole horizon
 linearised serially and with the worker pool, and the brute-force horizon on the unpruned
 scene: its per-knot cost is (ndx + nu + 1) x the measured full-scene step time at that knot
 (summed over the horizon), checked against one real dense Jacobian at the middle knot.
@@ -81,7 +82,8 @@ def _ours(scene, path, config, world, knot_time, pool):
     stats = serial.stats
     row = {"kept": len(report.kept), "added": len(report.added), "prune": prune_time,
            "step": rollout / len(path[1:]), "evals": stats.mean_evaluations,
-           "evals_max": max(stats.evaluations), "known": stats.known_boxes,
+           "evals_max": max(stats.evaluations, default=0), "known": stats.known_boxes,
+           "autodiff": stats.autodiff_knots,
            "serial": t_serial, "parallel": float("nan"), "parallel_again": float("nan")}
     if pool is not None:
         pool.warm_up(spec)
@@ -94,7 +96,8 @@ def _ours(scene, path, config, world, knot_time, pool):
 
 
 def run_levels(levels, seed, config, world, knot_time, num_knots, pool) -> None:
-    print(f"{'boxes':>5} {'kept':>4} {'step ms':>8} {'evals/knot':>10} {'brute':>5} "
+    print(f"{'boxes':>5} {'kept':>4} {'step ms':>8} {'evals/knot':>10} {'AD knots':>8} "
+          f"{'brute':>5} "
           f"{'serial s':>8} {'par s':>6} {'par2 s':>6} {'brute s':>8} {'x serial':>8} "
           f"{'x par':>6} {'dense(mid) s meas/est':>22} {'prune s':>7}")
     for n in levels:
@@ -107,7 +110,8 @@ def run_levels(levels, seed, config, world, knot_time, num_knots, pool) -> None:
         brute = _brute_force(scene, path, config, world, knot_time)
         best = np.nanmin([ours["serial"], ours["parallel"]])
         print(f"{n:5d} {ours['kept']:4d} {1000 * ours['step']:8.1f} "
-              f"{ours['evals']:6.1f}/{ours['evals_max']:<3d} {brute['columns']:5d} "
+              f"{ours['evals']:6.1f}/{ours['evals_max']:<3d} {ours['autodiff']:8d} "
+              f"{brute['columns']:5d} "
               f"{ours['serial']:8.2f} {ours['parallel']:6.2f} {ours['parallel_again']:6.2f} "
               f"{brute['horizon']:8.1f} {brute['horizon'] / ours['serial']:8.1f} "
               f"{brute['horizon'] / best:6.1f} "
@@ -167,6 +171,7 @@ def main(argv=None) -> int:
     print(f"load average at start {os.getloadavg()[0]:.2f} (2 cores); {num_knots} knots of "
           f"{knot_time} s, {dyn.substeps} SAP sub-steps each; contact {dyn.contact_model}, "
           f"fd_step {dyn.fd_step:g} {dyn.fd_scheme}, stride {dyn.derivative_stride}, "
+          f"method {dyn.derivative_method} (AutoDiffXd from {dyn.autodiff_min_groups} groups), "
           f"workers {dyn.workers}")
     pool = WorkerPool(dyn.workers) if dyn.workers > 0 else None
     try:

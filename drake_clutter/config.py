@@ -208,6 +208,15 @@ class DynamicsConfig:
     fd_scheme: Literal["forward", "central"] = "forward"  # Sec. V uses forward differences
     prune_margin: float = 0.05  # m around the arm's swept volume; ours (Sec. I: affected boxes)
     derivative_stride: int = 1  # compute A_t, B_t every k-th knot and interpolate; 1 = all
+    derivative_method: Literal["fd", "autodiff", "hybrid"] = "hybrid"  # how phi's Jacobians
+    # are taken; ours (Sec. V uses finite differences): "fd" = one phi evaluation per colour
+    # group; "autodiff" = one AutoDiffXd knot seeded with the colour groups (exact, and in
+    # contact FD's h = 1e-6 was off by 10-25 % at some knots, measured); "hybrid" = autodiff at
+    # knots with at least autodiff_min_groups groups, fd at the others. Measured (10 boxes,
+    # tests' reach): an AutoDiffXd knot costs ~14 + m/3 double phi evaluations for m groups
+    # (its hydroelastic contact surfaces dominate), FD m + 1
+    autodiff_min_groups: int = 20  # "hybrid": where AutoDiffXd starts to pay (14 + m/3 < m +
+    # 1 from m ~ 20; ours, measured as above)
     workers: int = 2  # parallel derivative workers (Sec. V: "in parallel"); ours: 2 cores
     # (0 = serial, in the calling process)
     # phi's simulation (all ours; measurements in the README's phi section).

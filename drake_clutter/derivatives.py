@@ -18,7 +18,12 @@ Brute force perturbs every column of [x, u] (ndx + nu + 1 phi evaluations per kn
    columns, not ndx + nu.
 4. Parallel workers. Groups are evaluated in ``workers`` spawned processes that each build their
    plant and context once per phi (tasks carry only the spec and numpy arrays).
-5. Stride. With ``derivative_stride`` k > 1 only every k-th knot (and the last) is
+5. AutoDiffXd. With ``derivative_method`` "autodiff" (or "hybrid", at knots with at least
+   ``autodiff_min_groups`` groups) a knot's groups are not finite differences but the
+   directions seeded into one AutoDiffXd step (`derivatives_autodiff.AutoDiffPhi.directional`):
+   exact, and cheaper where the arm pushes several boxes. The colouring and known blocks are the
+   same; a group's column of the result is J times the sum of its unit columns either way.
+6. Stride. With ``derivative_stride`` k > 1 only every k-th knot (and the last) is
    differentiated; A and B are interpolated linearly (in tangent coordinates) between them.
 
 Jacobians live in tangent coordinates (`dynamics.StateLayout`: rotations as rotation vectors
@@ -38,6 +43,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from drake_clutter.derivatives_autodiff import AutoDiffPhi
 from drake_clutter.dynamics import ARM_DIM, ARM_NODE, BOX_TANGENT, NU, Phi, PhiSpec, StateLayout
 
 # ----------------------------------------------------------------------------- columns
@@ -127,26 +133,46 @@ def dense_jacobians(phi: Phi, x, u, step: float | None = None, scheme: str | Non
     return jacobians + (D[ndx:, :ndx], D[ndx:, ndx:]) if forces else jacobians
 
 
+def group_seeds(layout: StateLayout, groups) -> np.ndarray:
+    """Seed directions ((ndx + nu) x len(groups)): column g sums the unit columns of group g."""
+    S = np.zeros((layout.ndx + NU, len(groups)))
+    for g, cols in enumerate(groups):
+        S[list(cols), g] = 1.0
+    return S
+
+
+def group_autodiff(autodiff: AutoDiffPhi, x, u, groups) -> np.ndarray:
+    """`group_differences`' result (len(groups), ndx + 1 + n) by AutoDiffXd: exact directional
+    derivatives of [x' (tangent), f] along each group's summed columns (NaN rows on failure)."""
+    return autodiff.directional(x, u, group_seeds(autodiff.phi.layout, groups)).T
+
+
 # ----------------------------------------------------------------------------- workers
 
-_WORKER_PHIS: OrderedDict = OrderedDict()  # in each worker process: spec key -> Phi
+_WORKER_PHIS: OrderedDict = OrderedDict()  # in each worker process: spec key -> [Phi,
+# AutoDiffPhi or None (built on first use)]
 _WORKER_CACHE_SIZE = 3
 
 
-def _worker_phi(key: str, spec: PhiSpec) -> Phi:
-    phi = _WORKER_PHIS.get(key)
-    if phi is None:
-        phi = _WORKER_PHIS[key] = Phi(spec)
+def _worker_phi(key: str, spec: PhiSpec, autodiff: bool = False):
+    """This worker's Phi of ``spec`` (or its AutoDiffPhi), built once."""
+    entry = _WORKER_PHIS.get(key)
+    if entry is None:
+        entry = _WORKER_PHIS[key] = [Phi(spec), None]
         while len(_WORKER_PHIS) > _WORKER_CACHE_SIZE:
             _WORKER_PHIS.popitem(last=False)
     _WORKER_PHIS.move_to_end(key)
-    return phi
+    if autodiff and entry[1] is None:
+        entry[1] = AutoDiffPhi(entry[0])
+    return entry[1] if autodiff else entry[0]
 
 
 def _run_task(task):
-    """Worker entry point: ('trace', key, spec, x, u) or ('groups', key, spec, x, u, nominal,
-    groups, step, scheme)."""
+    """Worker entry point: ('trace', key, spec, x, u), ('groups', key, spec, x, u, nominal,
+    groups, step, scheme) or ('autodiff', key, spec, x, u, groups)."""
     kind, key, spec, *args = task
+    if kind == "autodiff":
+        return group_autodiff(_worker_phi(key, spec, autodiff=True), *args)
     phi = _worker_phi(key, spec)
     if kind == "trace":
         return phi.step_full(*args)
@@ -210,6 +236,8 @@ class LinearizeStats:
     differentiated_knots: int = 0
     evaluations: list[int] = field(default_factory=list)  # phi evaluations per knot
     known_boxes: int = 0  # boxes-only component blocks reused from earlier knots
+    autodiff_knots: int = 0  # knots differentiated by AutoDiffXd (their groups are seed
+    # directions of one AutoDiffXd step, not phi evaluations)
     traced: int = 0  # knots whose nominal step had to be traced again
     failed_evaluations: int = 0
     seconds: float = 0.0
@@ -255,6 +283,7 @@ class PhiDynamics:
         self._last: tuple | None = None  # (key of xs, us; full Jacobians; forces) of the last
         # linearisation
         self.stats = LinearizeStats()
+        self._autodiff: AutoDiffPhi | None = None  # in-process, built on first serial use
 
     @property
     def num_forces(self) -> int:
@@ -352,7 +381,10 @@ class PhiDynamics:
             for comp, source in w.copies.items():
                 w.known[comp] = J[source][np.ix_(self._out_rows(comp), self._rows(comp))]
             self._assemble(w, D, J[w.t])
-            self.stats.evaluations.append(1 + len(w.groups) * self._evals_per_group())
+            if self._uses_autodiff(w):
+                self.stats.autodiff_knots += 1
+            else:
+                self.stats.evaluations.append(1 + len(w.groups) * self._evals_per_group())
         interpolate_between(J, np.zeros((T, 0, 0)), knots)
         self.stats.seconds = time.perf_counter() - tic
         self._last = (key, J)
@@ -411,16 +443,27 @@ class PhiDynamics:
         self.stats.known_boxes += len(known) + len(copies)
         return _KnotWork(t, x, u, (x_next, f), fd, colour_groups(columns), known, copies)
 
+    def _uses_autodiff(self, w: _KnotWork) -> bool:
+        """Whether knot work ``w`` is differentiated by AutoDiffXd (``derivative_method``)."""
+        method = self.config.derivative_method
+        if not w.groups or method == "fd" or self.config.contact_model == "point":
+            return False
+        return method == "autodiff" or len(w.groups) >= self.config.autodiff_min_groups
+
     def _evaluate(self, work: list[_KnotWork]) -> list[np.ndarray]:
-        """Difference quotients per knot, (groups, ndx + nf) each; split into pool tasks."""
+        """Directional derivatives per knot, (groups, ndx + nf) each: difference quotients or
+        AutoDiffXd (`_uses_autodiff`); split into pool tasks (one per AutoDiffXd knot)."""
         h, scheme = self.config.fd_step, self.config.fd_scheme
         if self.pool is None:
-            return [group_differences(self.phi, w.x, w.u, w.nominal, w.groups, h, scheme)
-                    for w in work]
-        total = sum(len(w.groups) for w in work)
-        chunk = max(1, math.ceil(total / (16 * self.pool.workers)))  # small: balance
+            return [self._serial(w, h, scheme) for w in work]
+        fd_groups = sum(len(w.groups) for w in work if not self._uses_autodiff(w))
+        chunk = max(1, math.ceil(fd_groups / (16 * self.pool.workers)))  # small: balance
         tasks, owners = [], []
         for i, w in enumerate(work):
+            if self._uses_autodiff(w):
+                tasks.append(("autodiff", self.spec.key, self.spec, w.x, w.u, w.groups))
+                owners.append(i)
+                continue
             for start in range(0, len(w.groups), chunk):
                 tasks.append(("groups", self.spec.key, self.spec, w.x, w.u, w.nominal,
                               w.groups[start:start + chunk], h, scheme))
@@ -430,6 +473,13 @@ class PhiDynamics:
             parts[i].append(result)
         width = self.layout.ndx + self.num_forces
         return [np.vstack(p) if p else np.zeros((0, width)) for p in parts]
+
+    def _serial(self, w: _KnotWork, h: float, scheme: str) -> np.ndarray:
+        if not self._uses_autodiff(w):
+            return group_differences(self.phi, w.x, w.u, w.nominal, w.groups, h, scheme)
+        if self._autodiff is None:
+            self._autodiff = AutoDiffPhi(self.phi)
+        return group_autodiff(self._autodiff, w.x, w.u, w.groups)
 
     def _assemble(self, w: _KnotWork, D: np.ndarray, J: np.ndarray) -> None:
         """Scatters a knot's difference quotients into its output Jacobian J (ndx + nf,

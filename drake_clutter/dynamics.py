@@ -300,6 +300,11 @@ def check_config(config: DynamicsConfig) -> None:
         ("substeps", config.substeps >= 1, "must be at least 1"),
         ("workers", config.workers >= 0, "must be 0 (serial) or more"),
         ("derivative_stride", config.derivative_stride >= 1, "must be at least 1"),
+        ("autodiff_min_groups", config.autodiff_min_groups >= 1, "must be at least 1"),
+        ("derivative_method", not (config.derivative_method == "autodiff"
+                                   and config.contact_model == "point"),
+         "cannot be 'autodiff' with contact_model 'point' (Drake has no AutoDiffXd Box-Box "
+         "queries; 'hybrid' uses finite differences there)"),
         ("corner_sphere_radius", config.corner_sphere_radius > 0, "must be positive"),
         ("interaction_margin", config.interaction_margin > 0, "must be positive"),
         ("known_block_tolerance", config.known_block_tolerance >= 0, "must be >= 0"),

@@ -209,6 +209,57 @@ def test_finite_differences_agree_with_autodiff(hydro10):
     assert max(medians) < 1e-3, medians  # entry-wise, every knot (measured <= 8.2e-5)
 
 
+def test_seeded_autodiff_is_the_full_jacobian_times_the_seeds(hydro10):
+    """AutoDiffXd seeded with colour groups gives J S exactly (state and force rows), and
+    agrees with the groups' finite differences."""
+    from drake_clutter.derivatives import group_autodiff, group_differences, group_seeds
+
+    dynamics, xs, us = hydro10
+    t = 6  # the arm pushes box_06
+    layout, phi = dynamics.layout, dynamics.phi
+    autodiff = AutoDiffPhi(phi)
+    full = autodiff.directional(xs[t], us[t], np.eye(layout.ndx + 8))
+    groups = [[0, 9, layout.ndx + 2], [3, layout.ndx + 7], [12]]
+    D = group_autodiff(autodiff, xs[t], us[t], groups)
+    np.testing.assert_allclose(D, (full @ group_seeds(layout, groups)).T, rtol=1e-9,
+                               atol=1e-9 * np.abs(full).max())
+    nominal = phi.step_forces(xs[t], us[t])
+    fd = group_differences(phi, xs[t], us[t], nominal, groups, 1e-6, "forward")
+    assert _rel(fd, D) < 2e-2, _rel(fd, D)  # FD's own error in this push (see above)
+    assert np.any(D[:, layout.ndx:] != 0)  # the pushed box's and the arm's contact forces
+
+
+def test_autodiff_linearization_equals_dense_autodiff(hydro10):
+    """derivative_method 'autodiff': coloured, known-block-reusing AutoDiffXd Jacobians equal
+    the dense AutoDiffXd ones; the worker pool gives the same bits; 'hybrid' uses AutoDiffXd
+    only at knots with many groups (here: the arm and two boxes, 40 groups)."""
+    dynamics, xs, us = hydro10
+    exact = _with_config(dynamics, derivative_method="autodiff")
+    A, B = exact.linearize_tangent(xs, us)
+    assert exact.stats.autodiff_knots > 0 and exact.stats.evaluations == []
+    reference = AutoDiffPhi(exact.phi)
+    for t in range(len(us)):
+        Aa, Ba = reference.jacobians(xs[t], us[t])
+        assert _rel(np.hstack([A[t], B[t]]), np.hstack([Aa, Ba])) < 1e-6, t
+    with WorkerPool(2) as pool:
+        parallel = PhiDynamics(exact.spec, pool=pool)
+        Ap, Bp = parallel.linearize_tangent(xs, us)
+    np.testing.assert_array_equal(A, Ap)
+    np.testing.assert_array_equal(B, Bp)
+    hybrid = _with_config(dynamics, derivative_method="hybrid", autodiff_min_groups=30)
+    hybrid.linearize_tangent(xs, us)
+    assert 0 < hybrid.stats.autodiff_knots < exact.stats.autodiff_knots
+
+
+def test_autodiff_with_point_contact_is_a_config_error():
+    from drake_clutter.config import ConfigError
+
+    scene = generate_scene("bookshelf", 2, seed=0)
+    config = DynamicsConfig(workers=0, contact_model="point", derivative_method="autodiff")
+    with pytest.raises(ConfigError, match="derivative_method"):
+        Phi(make_spec(scene, [], config=config))
+
+
 def test_autodiff_refuses_box_point_contact():
     scene = generate_scene("bookshelf", 2, seed=0)
     spec = make_spec(scene, [], config=DynamicsConfig(workers=0, contact_model="point"))

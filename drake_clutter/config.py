@@ -299,6 +299,10 @@ class PhysicsConfig:
     speed_fraction: float = 0.9  # ours: c_speed's margin below the PR2's joint speed limits
     grasp_smoothing: float = 0.005  # m, c_grasp = sqrt(d^2 + eps^2) - eps; ours: smooth
     # below 5 mm, the paper's distance beyond
+    force_source: Literal["phi", "proxy"] = "phi"  # c_force's force(q, x): "phi" = phi's
+    # contact forces per knot (Table I: forces between all pairs of objects, from the
+    # simulation) with their Jacobians from phi's derivatives; "proxy" = force_stiffness x the
+    # arm's penetration into boxes in the planning geometry (ours, the earlier stand-in)
     force_stiffness: float = 1.0e3  # N/m, c_force's penetration-to-force proxy; ours: at
     # phi's point stiffness (1e5) the proxy read 1e3-1e4 N where the arm sinks cm-deep into
     # boxes in phi, c_force outweighed every other term 1e5-fold and iLQR stopped at the

@@ -240,7 +240,8 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
         x0 = dynamics.phi.settle(initial_state(layout, q[0], scene_box_states(scene)))
         objective = PhysicsObjective(ArmGeometry(scene, variant), layout, config.physics, x0,
                                      scene.target, knot_time, config.baseline.d_safe,
-                                     force_exclude=held, static_geometry=static)
+                                     force_exclude=held, static_geometry=static,
+                                     forces=dynamics)
         augmented = AugmentedPhi(dynamics, config.physics.max_spectral_radius)
         z0 = np.concatenate([x0, q[0]])
         starts = [q, *alternatives]

@@ -9,10 +9,10 @@ tangent dz = [dx, dq_prev] (box rotations as rotation vectors in W). The control
 Knot 0 (the start, fixed) to knot T = Delta; Table II's time windows, as we read them:
 
 * per knot t = 1..T, on the state z_t (the arm at q^t, the boxes where phi put them):
-  c_static (arm vs shelf, "t <= Delta"), c_force, c_motion, c_upright ("all": every knot of
-  the plan; the boxes' motion after Delta is not simulated by the planner);
+  c_static (arm vs shelf, "t <= Delta"), c_motion, c_upright ("all": every knot of the plan;
+  the boxes' motion after Delta is not simulated by the planner), c_force as a proxy (below);
 * per interval t = 0..T-1, on (z_t, u_t): c_acc over (q^(t-1), q^t, q^(t+1)); at t = 0
-  q^(-1) = q^0 (the arm starts at rest);
+  q^(-1) = q^0 (the arm starts at rest); c_force from phi's forces of that knot ("all");
 * terminal, on z_T: c_grasp (tool frame to the target's centre), c_grp_horiz, c_grp_open.
 
 c_grasp here is Table I's distance (smoothed at 0, `grasp_distance`), not `costs.grasp`'s
@@ -20,12 +20,15 @@ squared distance: at w_grasp = 1e3 the square pulls with 2e3 d, too weak to matt
 clutter terms at a few cm (on fig5 the plan ended 5-15 cm off the target, measured); the
 distance pulls with 1e3 at any range, as in the paper.
 
-c_force (Table I: contact forces between objects) is a penetration proxy: for every arm-vs-box
-pair in contact, f = k (-d) with k = ``PhysicsConfig.force_stiffness`` (phi's point-contact
-stiffness), so 1/2 ||f||^2 is a smooth function of the state with an exact Gauss-Newton
-Hessian. It prices the force the arm must exert on each box: a box jammed against others
-cannot give way, so the arm sinks into it. Box-box and box-shelf forces are not in it (the
-planning world has no such pairs; a resting box's support force is constant anyway).
+c_force (Table I: 1/2 ||force(q, x)||^2, the forces between all pairs of objects) comes from
+phi itself when the objective is given a ``forces`` source (`derivatives.PhiDynamics`; the
+physics planner always gives it): per interval t = 0..T-1, f_t = f(x_t, u_t) is phi's
+contact-force vector of that knot (N; the arm's and each kept box's summed contact forces with
+every other object, a box's shelf contact beyond its allowance: `dynamics.Phi.contact_forces`),
+and its Jacobians (Fx, Fu) come from the same derivatives as A and B, so the term's
+Gauss-Newton expansion is w (Fx, Fu)^T f and w (Fx, Fu)^T (Fx, Fu). Without a source
+(``PhysicsConfig.force_source`` "proxy", or no phi) it is a penetration proxy on the knot's
+state: for every arm-vs-box pair in contact f = k (-d), k = ``force_stiffness``.
 
 Penetration (c_static, c_static_hull, c_dynamic) is `clearance.smooth_penetration` of the
 signed distance (linear beyond contact, quadratic inside d_safe), one function for both
@@ -160,18 +163,21 @@ class PhysicsObjective:
 
     ``x0`` is the start state (its boxes' positions are c_motion's p_i^1); ``target`` the
     target box's name (its centre is c_grasp's point: its state position when kept, else its
-    resting pose). Boxes in ``force_exclude`` have no c_force (the sphere stage's target);
-    ``static_geometry`` (default: ``geometry``) is the arm whose distances to the shelf make
-    c_static (the sphere stage's capsules).
+    resting pose). Boxes in ``force_exclude`` have no proxy c_force (the sphere stage's
+    target); ``static_geometry`` (default: ``geometry``) is the arm whose distances to the shelf
+    make c_static (the sphere stage's capsules). ``forces``: phi's contact forces
+    (``step_forces(x, u)`` and ``linearize_forces(xs, us)``, as `derivatives.PhiDynamics`)
+    for c_force, unless ``config.force_source`` is "proxy".
     """
 
     def __init__(self, geometry: ArmGeometry, layout: StateLayout, config: PhysicsConfig,
                  x0: np.ndarray, target: str, knot_time: float, d_safe: float,
                  force_exclude: tuple[str, ...] = (),
-                 static_geometry: ArmGeometry | None = None):
+                 static_geometry: ArmGeometry | None = None, forces=None):
         self.geometry, self.layout, self.config = geometry, layout, config
         self.knot_time, self.d_safe = knot_time, d_safe
         self.force_exclude = tuple(force_exclude)
+        self.forces = forces if config.force_source == "phi" else None
         self.static_geometry = static_geometry
         self._max_step = max_steps(config, knot_time)
         self.nx, self.ndx = layout.nx, layout.ndx
@@ -199,8 +205,9 @@ class PhysicsObjective:
         shelf = [c for c in contacts if c.obstacle == SHELF]
         if self.static_geometry is not None:
             shelf = self.static_geometry.contacts(q, None, self.d_safe, "shelf")
-        out = {"static": penetration_term(shelf, self.d_safe, self.nz).scaled(cfg.w_static),
-               "force": self._force(contacts).scaled(cfg.w_force)}
+        out = {"static": penetration_term(shelf, self.d_safe, self.nz).scaled(cfg.w_static)}
+        if self.forces is None:
+            out["force"] = self._force(contacts).scaled(cfg.w_force)
         out.update(self._box_terms(z))
         if terminal:
             out.update(self._terminal(z))
@@ -268,6 +275,9 @@ class PhysicsObjective:
             for name, term in self.state_terms(zs[t], terminal=t == T).items():
                 out[name] = out.get(name, 0.0) + term.value
         out["acc"] = sum(self.acc_term(zs[t], us[t]).value for t in range(T))
+        if self.forces is not None:
+            f = [self.forces.step_forces(zs[t, :self.nx], us[t]) for t in range(T)]
+            out["force"] = 0.5 * self.config.w_force * float(sum(fi @ fi for fi in f))
         return out
 
     def quadratize(self, zs: np.ndarray, us: np.ndarray) -> Expansion:
@@ -290,7 +300,20 @@ class PhysicsObjective:
         for term in self.state_terms(zs[T], terminal=True).values():
             vx += term.gradient
             vxx += term.hessian
+        if self.forces is not None:
+            self._add_phi_forces(zs, us, lx, lu, lxx, luu, lux)
         return Expansion(lx, lu, lxx, luu, lux, vx, vxx)
+
+    def _add_phi_forces(self, zs, us, lx, lu, lxx, luu, lux) -> None:
+        """w 1/2 ||f_t||^2 per interval, Gauss-Newton in (dx_t, du_t) (q_prev: no effect)."""
+        w, ndx = self.config.w_force, self.ndx
+        # A failed derivative evaluation (NaN) has no known effect, as in `ilqr`.
+        f, Fx, Fu = map(np.nan_to_num, self.forces.linearize_forces(zs[:len(us), :self.nx], us))
+        lx[:, :ndx] += w * np.einsum("tfi,tf->ti", Fx, f)
+        lu += w * np.einsum("tfi,tf->ti", Fu, f)
+        lxx[:, :ndx, :ndx] += w * np.einsum("tfi,tfj->tij", Fx, Fx)
+        luu += w * np.einsum("tfi,tfj->tij", Fu, Fu)
+        lux[:, :, :ndx] += w * np.einsum("tfi,tfj->tij", Fu, Fx)
 
 
 def _embed(term: Term, columns: list[int], n: int, first: int | None = None) -> Term:

@@ -162,6 +162,52 @@ def test_smooth_state_hessians_match_differences(physics_problem):
         np.testing.assert_allclose(H, 0.5 * (numeric + numeric.T), atol=1e-3, err_msg=name)
 
 
+class _SmoothForces:
+    """A stand-in for phi's contact forces: f(x, u) = tanh(P x_arm + Q u) (3 entries)."""
+
+    def __init__(self, ndx: int):
+        rng = np.random.default_rng(0)
+        self.P, self.Q, self.ndx = rng.normal(size=(3, 8)), rng.normal(size=(3, 8)), ndx
+
+    def step_forces(self, x, u):
+        return np.tanh(self.P @ x[:8] + self.Q @ u)
+
+    def linearize_forces(self, xs, us):
+        f = np.array([self.step_forces(x, u) for x, u in zip(xs, us, strict=True)])
+        d = 1.0 - f**2
+        Fx = np.zeros((len(us), 3, self.ndx))
+        Fx[:, :, :8] = d[:, :, None] * self.P
+        return f, Fx, d[:, :, None] * self.Q
+
+
+def test_phi_force_term_gradient_matches_differences(physics_problem, geometry):
+    """With phi's forces, c_force is w/2 sum_t ||f(x_t, u_t)||^2 over the intervals, and its
+    expansion's gradient in (dz_t, du_t) is the numerical one."""
+    _, layout, z = physics_problem
+    objective = PhysicsObjective(geometry, layout, PhysicsConfig(w_force=2.0), z[:layout.nx],
+                                 "target", knot_time=0.2, d_safe=0.02,
+                                 forces=_SmoothForces(layout.ndx))
+    zs = np.stack([z, z, z])
+    us = np.stack([z[:8] + 0.03, z[:8] - 0.02])
+    zs[1, :8] = us[0]
+    zs[2, :8] = us[1]
+    f = [objective.forces.step_forces(zs[t, :layout.nx], us[t]) for t in range(2)]
+    assert objective.terms(zs, us)["force"] == pytest.approx(sum(fi @ fi for fi in f))
+    exp = objective.quadratize(zs, us)
+    objective.forces.P[:], objective.forces.Q[:] = 0.0, 0.0  # every other term (f = 0)
+    base = objective.quadratize(zs, us)
+    objective.forces = _SmoothForces(layout.ndx)
+    for t in range(2):
+        def value(w, t=t):
+            x = layout.retract(zs[t, :layout.nx], w[:layout.ndx])
+            return float(np.sum(objective.forces.step_forces(x, us[t] + w[layout.ndx:]) ** 2))
+
+        numeric = _numeric_gradient(value, np.zeros(layout.ndx + 8))
+        np.testing.assert_allclose(exp.lx[t, :layout.ndx] - base.lx[t, :layout.ndx],
+                                   numeric[:layout.ndx], atol=1e-6)
+        np.testing.assert_allclose(exp.lu[t] - base.lu[t], numeric[layout.ndx:], atol=1e-6)
+
+
 def test_acc_term_matches_differences(physics_problem):
     objective, layout, z = physics_problem
     u = z[:8] + 0.05

@@ -29,6 +29,7 @@ from drake_clutter.dynamics import (
     BOX_TANGENT,
     NU,
     Phi,
+    contact_pairs,
     quaternion_tangent_basis,
 )
 from drake_clutter.trajectory import robot_positions
@@ -155,16 +156,9 @@ class AutoDiffPhi:
         """d f / d seeds (nf x m) of `Phi.contact_forces` for the current AutoDiffXd state:
         d|F| = F^T dF / |F| per pair, the shelf's share only where it exceeds the allowance."""
         phi = self.phi
-        results = self.plant.get_contact_results_output_port().Eval(self.context)
-        pairs = [(info.point_pair().id_A, info.point_pair().id_B, info.contact_force())
-                 for info in map(results.point_pair_contact_info,
-                                 range(results.num_point_pair_contacts()))]
-        pairs += [(info.contact_surface().id_M(), info.contact_surface().id_N(),
-                   info.F_Ac_W().translational())
-                  for info in map(results.hydroelastic_contact_info,
-                                  range(results.num_hydroelastic_contacts()))]
-        df, shelf, dshelf = np.zeros((phi.num_forces, m)), np.zeros(phi.num_forces), \
-            np.zeros((phi.num_forces, m))
+        pairs = contact_pairs(self.plant.get_contact_results_output_port().Eval(self.context))
+        df, dshelf = np.zeros((phi.num_forces, m)), np.zeros((phi.num_forces, m))
+        shelf = np.zeros(phi.num_forces)
         for id_a, id_b, force in pairs:
             a, b = phi._geometry_nodes.get(id_a), phi._geometry_nodes.get(id_b)
             if a == b:

@@ -339,6 +339,18 @@ def point_contact_geometry(config: DynamicsConfig) -> PointContactBoxes | None:
                              box_shape=config.contact_model == "point")
 
 
+def contact_pairs(results) -> list[tuple]:
+    """(geometry id A, geometry id B, force on A's body at the contact, in W) of every point
+    and hydroelastic contact in a plant's ContactResults (double or AutoDiffXd)."""
+    pairs = [(info.point_pair().id_A, info.point_pair().id_B, info.contact_force())
+             for info in map(results.point_pair_contact_info,
+                             range(results.num_point_pair_contacts()))]
+    return pairs + [(info.contact_surface().id_M(), info.contact_surface().id_N(),
+                     info.F_Ac_W().translational())
+                    for info in map(results.hydroelastic_contact_info,
+                                    range(results.num_hydroelastic_contacts()))]
+
+
 # ----------------------------------------------------------------------------- phi
 
 
@@ -526,16 +538,8 @@ class Phi:
         the weight at every knot; beyond it the box is pressed into the shelf, Sec. III's
         kinematic failure); a body's internal contacts are left out. A pair appears in both
         its nodes' entries. `step_full` averages this over a knot's sub-steps."""
-        results = self._contact_port.Eval(self.context)
         f, shelf = np.zeros(self.num_forces), np.zeros(self.num_forces)
-        pairs = [(info.point_pair().id_A, info.point_pair().id_B, info.contact_force())
-                 for info in map(results.point_pair_contact_info,
-                                 range(results.num_point_pair_contacts()))]
-        pairs += [(info.contact_surface().id_M(), info.contact_surface().id_N(),
-                   info.F_Ac_W().translational())
-                  for info in map(results.hydroelastic_contact_info,
-                                  range(results.num_hydroelastic_contacts()))]
-        for id_a, id_b, force in pairs:
+        for id_a, id_b, force in contact_pairs(self._contact_port.Eval(self.context)):
             a, b = self._geometry_nodes.get(id_a), self._geometry_nodes.get(id_b)
             if a == b:
                 continue

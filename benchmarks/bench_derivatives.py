@@ -125,7 +125,7 @@ def validate(config, world, knot_time, num_knots, seed) -> None:
     scene = generate_scene("bookshelf", 10, seed=seed)
     path = straight_reach(scene, num_knots=num_knots)
     model = "spheres" if config.contact_model == "point" else config.contact_model
-    base = dataclasses.replace(config, contact_model=model, workers=0)
+    base = dataclasses.replace(config, contact_model=model, workers=0, derivative_method="fd")
     spec, report = make_pruned_spec(scene, path, knot_time=knot_time, config=base,
                                     world_config=world)
     print(f"\nFD vs AutoDiffXd, {model} phi, bookshelf 10 boxes seed {seed}, "

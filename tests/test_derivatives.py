@@ -60,9 +60,9 @@ def _rel(J, ref) -> float:
 @pytest.fixture(scope="module")
 def point10():
     """Bookshelf, 10 boxes, seed 1: the reach pushes into kept boxes in its second half.
-    fd_step 1e-5: these tests check the bookkeeping (colouring, known blocks, stride,
-    workers), not the step."""
-    return _setup(10, 1, fd_step=1e-5)
+    fd_step 1e-5: these tests check the finite differences' bookkeeping (colouring, known
+    blocks, stride, workers), not the step (AutoDiffXd's: further down)."""
+    return _setup(10, 1, fd_step=1e-5, derivative_method="fd")
 
 
 # ----------------------------------------------------------------------------- pure parts
@@ -178,7 +178,7 @@ def test_parallel_workers_give_the_serial_bits():
 def hydro10():
     """phi as configured (hydroelastic boxes with a margin, 5 sub-steps), 10 boxes, seed 0: the
     arm is within reach of a kept box from knot 0 and pushes box_06 6 cm over knots 2-13."""
-    dynamics, xs, us = _setup(10, 0)
+    dynamics, xs, us = _setup(10, 0, derivative_method="fd")
     return dynamics, xs[:15], us[:14]
 
 

@@ -29,10 +29,10 @@ from drake_clutter.dynamics import (
     BOX_TANGENT,
     NU,
     Phi,
-    contact_pairs,
     quaternion_tangent_basis,
 )
 from drake_clutter.trajectory import robot_positions
+from drake_clutter.world import contact_pairs
 
 
 def _arm_map() -> np.ndarray:

@@ -61,6 +61,7 @@ from drake_clutter.world import (
     World,
     box_rest_pose,
     build_dynamics_world,
+    contact_pairs,
     set_desired_robot_state,
 )
 
@@ -337,18 +338,6 @@ def point_contact_geometry(config: DynamicsConfig) -> PointContactBoxes | None:
         return None
     return PointContactBoxes(config.corner_sphere_radius,
                              box_shape=config.contact_model == "point")
-
-
-def contact_pairs(results) -> list[tuple]:
-    """(geometry id A, geometry id B, force on A's body at the contact, in W) of every point
-    and hydroelastic contact in a plant's ContactResults (double or AutoDiffXd)."""
-    pairs = [(info.point_pair().id_A, info.point_pair().id_B, info.contact_force())
-             for info in map(results.point_pair_contact_info,
-                             range(results.num_point_pair_contacts()))]
-    return pairs + [(info.contact_surface().id_M(), info.contact_surface().id_N(),
-                     info.F_Ac_W().translational())
-                    for info in map(results.hydroelastic_contact_info,
-                                    range(results.num_hydroelastic_contacts()))]
 
 
 # ----------------------------------------------------------------------------- phi

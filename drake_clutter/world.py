@@ -406,3 +406,16 @@ def step(world: World, root_context: Context, num_steps: int = 1) -> None:
         state = plant.EvalUniquePeriodicDiscreteUpdate(context)
         context.SetDiscreteState(state.value())
         root_context.SetTime(root_context.get_time() + plant.time_step())
+
+
+def contact_pairs(results) -> list[tuple]:
+    """(geometry id A, geometry id B, contact force in W, N) of every point and hydroelastic
+    contact in a plant's ContactResults (double or AutoDiffXd). Drake gives the force on B for
+    a point pair and on A (M) for a hydroelastic one; phi uses only its magnitude."""
+    pairs = [(info.point_pair().id_A, info.point_pair().id_B, info.contact_force())
+             for info in map(results.point_pair_contact_info,
+                             range(results.num_point_pair_contacts()))]
+    return pairs + [(info.contact_surface().id_M(), info.contact_surface().id_N(),
+                     info.F_Ac_W().translational())
+                    for info in map(results.hydroelastic_contact_info,
+                                    range(results.num_hydroelastic_contacts()))]

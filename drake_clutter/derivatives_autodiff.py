@@ -25,7 +25,6 @@ from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoD
 
 from drake_clutter.dynamics import (
     ARM_DIM,
-    ARM_NODE,
     BOX_TANGENT,
     NU,
     Phi,
@@ -156,26 +155,16 @@ class AutoDiffPhi:
         """d f / d seeds (nf x m) of `Phi.contact_forces` for the current AutoDiffXd state:
         d|F| = F^T dF / |F| per pair, the shelf's share only where it exceeds the allowance."""
         phi = self.phi
-        pairs = contact_pairs(self.plant.get_contact_results_output_port().Eval(self.context))
-        df, dshelf = np.zeros((phi.num_forces, m)), np.zeros((phi.num_forces, m))
-        shelf = np.zeros(phi.num_forces)
-        for id_a, id_b, force in pairs:
-            a, b = phi._geometry_nodes.get(id_a), phi._geometry_nodes.get(id_b)
-            if a == b:
-                continue
+        rows = []
+        for id_a, id_b, force in contact_pairs(
+                self.plant.get_contact_results_output_port().Eval(self.context)):
             F, dF = ExtractValue(force).ravel(), _gradient(force, m)
             magnitude = float(np.linalg.norm(F))
             dmag = F @ dF / magnitude if magnitude > 0 else np.zeros(m)
-            if a is None or b is None:
-                box = b if a is None else a
-                if box is not None and box > ARM_NODE:
-                    shelf[box] += magnitude
-                    dshelf[box] += dmag
-                continue
-            for node in (a, b):
-                if node >= 0:
-                    df[node] += dmag
-        return df + np.where((shelf > phi._shelf_allowance)[:, None], dshelf, 0.0)
+            rows.append((id_a, id_b, np.concatenate([[magnitude], dmag])))
+        f, shelf = phi.sum_by_node(rows, 1 + m)
+        pressed = shelf[:, 0] > phi._shelf_allowance
+        return f[:, 1:] + np.where(pressed[:, None], shelf[:, 1:], 0.0)
 
     def _read_jacobian(self, S: np.ndarray) -> np.ndarray:
         phi, layout, m = self.phi, self.phi.layout, S.shape[1]

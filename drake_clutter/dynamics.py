@@ -304,8 +304,7 @@ def check_config(config: DynamicsConfig) -> None:
         ("autodiff_min_groups", config.autodiff_min_groups >= 1, "must be at least 1"),
         ("derivative_method", not (config.derivative_method == "autodiff"
                                    and config.contact_model == "point"),
-         "cannot be 'autodiff' with contact_model 'point' (Drake has no AutoDiffXd Box-Box "
-         "queries; 'hybrid' uses finite differences there)"),
+         "cannot be 'autodiff' with contact_model 'point' (no AutoDiffXd Box-Box queries)"),
         ("corner_sphere_radius", config.corner_sphere_radius > 0, "must be positive"),
         ("interaction_margin", config.interaction_margin > 0, "must be positive"),
         ("known_block_tolerance", config.known_block_tolerance >= 0, "must be >= 0"),
@@ -527,21 +526,27 @@ class Phi:
         the weight at every knot; beyond it the box is pressed into the shelf, Sec. III's
         kinematic failure); a body's internal contacts are left out. A pair appears in both
         its nodes' entries. `step_full` averages this over a knot's sub-steps."""
-        f, shelf = np.zeros(self.num_forces), np.zeros(self.num_forces)
-        for id_a, id_b, force in contact_pairs(self._contact_port.Eval(self.context)):
+        pairs = contact_pairs(self._contact_port.Eval(self.context))
+        f, shelf = self.sum_by_node(((a, b, [np.linalg.norm(force)]) for a, b, force in pairs), 1)
+        return f[:, 0] + np.maximum(0.0, shelf[:, 0] - self._shelf_allowance)
+
+    def sum_by_node(self, rows, width: int) -> tuple[np.ndarray, np.ndarray]:
+        """Sums per node (1 + n, width) of (geometry id A, geometry id B, row) contacts, as
+        `contact_forces` counts them: (between objects, a kept box's with the shelf)."""
+        f, shelf = np.zeros((self.num_forces, width)), np.zeros((self.num_forces, width))
+        for id_a, id_b, row in rows:
             a, b = self._geometry_nodes.get(id_a), self._geometry_nodes.get(id_b)
             if a == b:
                 continue
-            magnitude = float(np.linalg.norm(force))
             if a is None or b is None:  # the shelf (or the robot's welded base)
                 box = b if a is None else a
                 if box is not None and box > ARM_NODE:
-                    shelf[box] += magnitude
+                    shelf[box] += row
                 continue
             for node in (a, b):
                 if node >= 0:
-                    f[node] += magnitude
-        return f + np.maximum(0.0, shelf - self._shelf_allowance)
+                    f[node] += row
+        return f, shelf
 
     @property
     def contact_margin(self) -> float:

@@ -290,8 +290,13 @@ class PhysicsConfig:
     w_dynamic: float = 80.0  # Sec. V-A pre-processing; ours: as w_static_hull
     w_match: float = 1.0  # Sec. V-B post-processing; ours
     w_match_vel: float = 1.0  # Sec. V-B post-processing; ours
-    # Time windows (Table II), as we read them: c_static, c_force, c_motion, c_upright on the
-    # state at every knot 1..Delta; c_acc on every interval; grasp/grp_horiz/grp_open terminal.
+    # Time windows (Table II), as we read them: c_static on the state at every knot 1..Delta,
+    # c_acc on every interval up to Delta ("t <= Delta"); c_force, c_motion, c_upright at
+    # "all" times: every knot and the hold_knots after Delta; grasp/grp_horiz/grp_open at Delta.
+    hold_knots: int = 5  # Table II's "all" past Delta: phi goes on this many knots with the arm
+    # held at q^Delta and their c_force/c_motion/c_upright count (physics.HoldTail); ours: 1 s
+    # (a domino toppled at the last knot falls in ~0.5 s). Without it the fig7 plan started the
+    # cascade at t = 5 s, tilts 30-60 deg at Delta, and c_upright saw 5.8 (measured)
     w_speed: float = 1.0e4  # ours (not in Table II): weight of c_speed, the squared excess of
     # a joint's move per knot over speed_fraction x its PR2 speed limit, added to c_acc's
     # interval term (the evaluation rejects plans beyond the limits; at w_acc = 1e-3 alone the

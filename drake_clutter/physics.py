@@ -123,6 +123,80 @@ class AugmentedPhi:
                                z_a[self.nx:] - z_b[self.nx:]])
 
 
+class HoldTail:
+    """The stage's objective plus the knots after Delta (Table II: c_force, c_motion and
+    c_upright are active at "all" times, c_static and c_acc at t <= Delta): phi goes on for
+    ``knots`` knots with the arm held still at q^Delta, and those knots' c_motion, c_upright
+    and c_force add to the objective, so a box set toppling or sliding off by the last knots is
+    paid for as it falls (Sec. III's evaluation replays until the boxes rest). The tail is a
+    function of the last state alone, V(z_T) = sum_k c(y_k), y_0 = x_T, y_(k+1) = phi(y_k,
+    q^Delta); its expansion enters the terminal vx, vxx through the chain of the tail's
+    Jacobians, Gauss-Newton as iLQR treats its knots (its box blocks capped like the stage's).
+    ``ilqr.Cost`` protocol over the augmented state z = [x, q^(t-1)] of `AugmentedPhi`."""
+
+    def __init__(self, objective: PhysicsObjective, dynamics: PhiDynamics, knots: int,
+                 max_spectral_radius: float = float("inf")):
+        self.objective, self.dynamics, self.knots = objective, dynamics, knots
+        self.max_spectral_radius = max_spectral_radius
+        self.nx, self.ndx = dynamics.layout.nx, dynamics.layout.ndx
+
+    def tail(self, z_last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """States y_0..y_K (K + 1, nx) of the held arm after z_last, and the hold (8,)."""
+        hold = np.array(z_last[:ARM_DIM], dtype=float)
+        return self.dynamics.rollout(z_last[:self.nx], np.tile(hold, (self.knots, 1))), hold
+
+    def _knot_terms(self, y: np.ndarray, hold: np.ndarray) -> dict:
+        """Weighted terms (over dz) at a tail state: those of every knot but c_static."""
+        terms = self.objective.state_terms(np.concatenate([y, hold]), terminal=False)
+        terms.pop("static", None)
+        return terms
+
+    def terms(self, zs: np.ndarray, us: np.ndarray) -> dict[str, float]:
+        """The objective's terms with the tail's added to c_motion, c_upright, c_force."""
+        out = self.objective.terms(zs, us)
+        ys, hold = self.tail(zs[-1])
+        if not np.all(np.isfinite(ys)):
+            return {**out, "hold": float("inf")}
+        for y in ys[1:]:
+            for name, term in self._knot_terms(y, hold).items():
+                out[name] = out.get(name, 0.0) + term.value
+        if self.objective.forces is not None:
+            f = [self.dynamics.step_forces(y, hold) for y in ys[:-1]]
+            out["force"] = out.get("force", 0.0) + 0.5 * self.objective.config.w_force * float(
+                sum(fi @ fi for fi in f))
+        return out
+
+    def quadratize(self, zs: np.ndarray, us: np.ndarray) -> ilqr.Expansion:
+        """The objective's expansion with the tail's in vx, vxx over x_T's tangent dx."""
+        exp = self.objective.quadratize(zs, us)  # first: it reuses phi's last linearisation
+        ys, hold = self.tail(zs[-1])
+        if not np.all(np.isfinite(ys)):
+            return exp
+        holds = np.tile(hold, (self.knots, 1))
+        A, B = map(np.nan_to_num, self.dynamics.linearize_tangent(ys, holds))
+        ndx = self.ndx
+        A[:, :, :ARM_DIM] += B  # the hold is x_T's arm: du = dx_arm
+        cap_spectral_radius(A, self.max_spectral_radius)
+        hold_rows = np.zeros((ARM_DIM, ndx))
+        hold_rows[:, :ARM_DIM] = np.eye(ARM_DIM)
+        J = np.eye(ndx)  # d y_k / d x_T
+        forces = self.objective.forces is not None
+        if forces:
+            f, Fx, Fu = map(np.nan_to_num, self.dynamics.linearize_forces(ys, holds))
+            w = self.objective.config.w_force
+        for k in range(self.knots):
+            if forces:
+                G = Fx[k] @ J + Fu[k] @ hold_rows
+                exp.vx[:ndx] += w * G.T @ f[k]
+                exp.vxx[:ndx, :ndx] += w * G.T @ G
+            J = A[k] @ J
+            P = np.vstack([J, hold_rows])  # d z_k / d x_T, z_k = [y_k, hold]
+            for term in self._knot_terms(ys[k + 1], hold).values():
+                exp.vx[:ndx] += P.T @ term.gradient
+                exp.vxx[:ndx, :ndx] += P.T @ term.hessian @ P
+        return exp
+
+
 def cap_spectral_radius(A: np.ndarray, cap: float) -> np.ndarray:
     """Scales, in place, the box-to-box block of every tangent Jacobian A_t (T, ndx, ndx) whose
     spectral radius exceeds ``cap`` down to it; returns the radii before. The arm's rows are
@@ -243,6 +317,9 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
                                      force_exclude=held, static_geometry=static,
                                      forces=dynamics)
         augmented = AugmentedPhi(dynamics, config.physics.max_spectral_radius)
+        if config.physics.hold_knots > 0:
+            objective = HoldTail(objective, dynamics, config.physics.hold_knots,
+                                 config.physics.max_spectral_radius)
         z0 = np.concatenate([x0, q[0]])
         starts = [q, *alternatives]
         values = [_path_objective(augmented, objective, z0, path) for path in starts]
@@ -358,6 +435,7 @@ def check_config(config: Config) -> None:
               ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
               ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
               ("force_stiffness", cfg.force_stiffness > 0, "positive"),
+              ("hold_knots", cfg.hold_knots >= 0, "at least 0"),
               ("w_speed", cfg.w_speed >= 0, "non-negative"),
               ("speed_fraction", cfg.speed_fraction > 0, "positive"),
               ("tolerance", cfg.tolerance >= 0, "non-negative"),

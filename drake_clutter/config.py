@@ -220,11 +220,14 @@ class DynamicsConfig:
     workers: int = 2  # parallel derivative workers (Sec. V: "in parallel"); ours: 2 cores
     # (0 = serial, in the calling process)
     # phi's simulation (all ours; measurements in the README's phi section).
-    substeps: int = 5  # SAP steps per knot (0.2 s knots / 5 = 40 ms). Measured with the
-    # hydroelastic boxes and their 2 mm margin (10 boxes, a 14-knot push; README): FD vs
-    # AutoDiffXd whole-Jacobian error median 3e-3 at 5 sub-steps, 2.6e-2 at 10 (bigger steps
-    # damp more: smoother); 2 sub-steps (0.1 s) agree to 1.4e-3 but resting boxes jitter at
-    # 0.14 m/s; 4 and 5 settle
+    substeps: int = 10  # SAP steps per knot (0.2 s knots / 10 = 20 ms); ours. Measured: at
+    # 40 ms (5) a 2 cm thin standing box's rocking mode is under-resolved - solver noise from
+    # the moving arm grew ~3x a knot and fig7's dominoes toppled untouched (the planner then
+    # optimised against a phantom cascade); at 20 ms they stand. `bench_fidelity.py` (phi vs
+    # Bullet on the behaviour scenes' baseline plans, box classes that agree): 22/27 at 5 and
+    # at 10, 25/27 at 20 (4x phi's cost); fig6/fig7 displacement errors 2.8/21.4 cm at 5,
+    # 1.2/20.5 at 10. FD vs AutoDiffXd (10 boxes, a push): median 3e-3 at 5, 2.6e-2 at 10
+    # (the planner takes AutoDiffXd where the arm pushes: `derivative_method`)
     contact_model: Literal["point", "spheres", "hydroelastic"] = "hydroelastic"  # boxes in
     # phi: "hydroelastic" = compliant boxes with world.hydroelastic_margin against the rigid
     # hydroelastic arm and shelf: phi is continuous (measured: point contact jumps by up to 0.3

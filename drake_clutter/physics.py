@@ -21,7 +21,8 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `physic
    + c_match_vel to the physics plan.
 
 Each phi stage prunes the boxes against its initial path (`pruning.make_pruned_spec`), settles
-the kept boxes in phi under the arm at the start configuration (``dynamics.settle_time``) and
+the kept boxes in phi under the arm at the start configuration (``dynamics.settle_time``),
+adds the held knots after Delta to its objective (`HoldTail`, Table II's "all" times) and
 runs iLQR in the tangent space of the augmented state z = [x, q^(t-1)] (`AugmentedPhi`;
 rotations as rotation vectors, `ilqr.solve`'s ``difference``). The start q^0 is fixed; the
 controls q^1..q^Delta are box-bounded by the PR2's joint limits and the gripper's [0, 0.09] m

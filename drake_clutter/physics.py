@@ -162,9 +162,8 @@ class HoldTail:
             for name, term in self._knot_terms(y, hold).items():
                 out[name] = out.get(name, 0.0) + term.value
         if self.objective.forces is not None:
-            f = [self.dynamics.step_forces(y, hold) for y in ys[:-1]]
-            out["force"] = out.get("force", 0.0) + 0.5 * self.objective.config.w_force * float(
-                sum(fi @ fi for fi in f))
+            holds = np.tile(hold, (self.knots, 1))
+            out["force"] = out.get("force", 0.0) + self.objective.phi_force_value(ys[:-1], holds)
         return out
 
     def quadratize(self, zs: np.ndarray, us: np.ndarray) -> ilqr.Expansion:

@@ -276,9 +276,14 @@ class PhysicsObjective:
                 out[name] = out.get(name, 0.0) + term.value
         out["acc"] = sum(self.acc_term(zs[t], us[t]).value for t in range(T))
         if self.forces is not None:
-            f = [self.forces.step_forces(zs[t, :self.nx], us[t]) for t in range(T)]
-            out["force"] = 0.5 * self.config.w_force * float(sum(fi @ fi for fi in f))
+            out["force"] = self.phi_force_value(zs[:T, :self.nx], us)
         return out
+
+    def phi_force_value(self, xs: np.ndarray, us: np.ndarray) -> float:
+        """Weighted c_force from phi's contact forces: w/2 sum_t ||f(x_t, u_t)||^2 (N^2) over
+        the intervals (x_t, u_t)."""
+        f = [self.forces.step_forces(x, u) for x, u in zip(xs, us, strict=True)]
+        return 0.5 * self.config.w_force * float(sum(fi @ fi for fi in f))
 
     def quadratize(self, zs: np.ndarray, us: np.ndarray) -> Expansion:
         """Expansion in tangent coordinates (dz, du)."""

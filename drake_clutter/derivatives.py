@@ -37,7 +37,7 @@ import math
 import multiprocessing
 import time
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -239,6 +239,7 @@ class LinearizeStats:
     autodiff_knots: int = 0  # knots differentiated by AutoDiffXd (their groups are seed
     # directions of one AutoDiffXd step, not phi evaluations)
     traced: int = 0  # knots whose nominal step had to be traced again
+    autodiff_fallbacks: int = 0  # AutoDiffXd knots with non-finite groups, differenced instead
     failed_evaluations: int = 0
     seconds: float = 0.0
 
@@ -284,6 +285,7 @@ class PhiDynamics:
         # linearisation
         self.stats = LinearizeStats()
         self._autodiff: AutoDiffPhi | None = None  # in-process, built on first serial use
+        self.autodiff_fallbacks = 0  # knots differenced because AutoDiffXd failed, all calls
 
     @property
     def num_forces(self) -> int:
@@ -452,15 +454,38 @@ class PhiDynamics:
 
     def _evaluate(self, work: list[_KnotWork]) -> list[np.ndarray]:
         """Directional derivatives per knot, (groups, ndx + nf) each: difference quotients or
-        AutoDiffXd (`_uses_autodiff`); split into pool tasks (one per AutoDiffXd knot)."""
+        AutoDiffXd (`_uses_autodiff`). Groups whose AutoDiffXd result is not finite are
+        differenced instead (``stats.autodiff_fallbacks``): Drake's AutoDiffXd SAP step can
+        return finite values with NaN gradients (fig8's resting box rows at some knots: 3 of
+        29 knots of the first sphere-stage linearisation, measured), and iLQR would otherwise
+        see zeros there."""
+        results = self._evaluate_with(work, self._uses_autodiff)
+        retry = {}
+        for i, (w, D) in enumerate(zip(work, results, strict=True)):
+            bad = np.flatnonzero(~np.all(np.isfinite(D), axis=1))
+            if len(bad) and self._uses_autodiff(w):
+                retry[i] = bad
+        if retry:
+            self.stats.autodiff_fallbacks += len(retry)
+            self.autodiff_fallbacks += len(retry)
+            again = [replace(work[i], groups=[work[i].groups[g] for g in rows])
+                     for i, rows in retry.items()]
+            for (i, rows), D in zip(retry.items(), self._evaluate_with(again, lambda w: False),
+                                    strict=True):
+                results[i][rows] = D
+        return results
+
+    def _evaluate_with(self, work: list[_KnotWork], autodiff) -> list[np.ndarray]:
+        """`_evaluate`'s first pass: AutoDiffXd at the knots where ``autodiff(w)``, finite
+        differences elsewhere; split into pool tasks (one per AutoDiffXd knot)."""
         h, scheme = self.config.fd_step, self.config.fd_scheme
         if self.pool is None:
-            return [self._serial(w, h, scheme) for w in work]
-        fd_groups = sum(len(w.groups) for w in work if not self._uses_autodiff(w))
+            return [self._serial(w, h, scheme, autodiff(w)) for w in work]
+        fd_groups = sum(len(w.groups) for w in work if not autodiff(w))
         chunk = max(1, math.ceil(fd_groups / (16 * self.pool.workers)))  # small: balance
         tasks, owners = [], []
         for i, w in enumerate(work):
-            if self._uses_autodiff(w):
+            if autodiff(w):
                 tasks.append(("autodiff", self.spec.key, self.spec, w.x, w.u, w.groups))
                 owners.append(i)
                 continue
@@ -474,8 +499,8 @@ class PhiDynamics:
         width = self.layout.ndx + self.num_forces
         return [np.vstack(p) if p else np.zeros((0, width)) for p in parts]
 
-    def _serial(self, w: _KnotWork, h: float, scheme: str) -> np.ndarray:
-        if not self._uses_autodiff(w):
+    def _serial(self, w: _KnotWork, h: float, scheme: str, autodiff: bool) -> np.ndarray:
+        if not autodiff:
             return group_differences(self.phi, w.x, w.u, w.nominal, w.groups, h, scheme)
         if self._autodiff is None:
             self._autodiff = AutoDiffPhi(self.phi)

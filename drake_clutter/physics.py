@@ -331,6 +331,7 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
                             difference=augmented.difference)
         info = {"kept_boxes": list(layout.box_names), "pruning": report.summary(),
                 "phi_failures": dynamics.phi.failures,
+                "autodiff_fallbacks": dynamics.autodiff_fallbacks,
                 "start_objectives": [float(v) for v in values]}
     return np.vstack([q[:1], result.us]), result, info
 

@@ -255,6 +255,28 @@ def test_autodiff_linearization_equals_dense_autodiff(hydro10):
     assert 0 < hybrid.stats.autodiff_knots < exact.stats.autodiff_knots
 
 
+def test_a_failed_autodiff_knot_is_differenced_instead(hydro10, monkeypatch):
+    """Where AutoDiffXd gives non-finite derivatives (Drake's SAP step can: NaN gradients with
+    finite values, fig8) the knot's groups are finite-differenced: the same Jacobians as
+    derivative_method 'fd', none zero or NaN, and the stats count the fallbacks."""
+    dynamics, xs, us = hydro10
+    reference = _with_config(dynamics, derivative_method="fd")
+    A_fd, B_fd = reference.linearize_tangent(xs, us)
+    exact = _with_config(dynamics, derivative_method="autodiff")
+
+    def failing(self, x, u, S):
+        return np.full((self.phi.layout.ndx + self.phi.num_forces, S.shape[1]), np.nan)
+
+    monkeypatch.setattr(AutoDiffPhi, "directional", failing)
+    A, B = exact.linearize_tangent(xs, us)
+    assert exact.stats.autodiff_knots > 0
+    assert exact.stats.autodiff_fallbacks == exact.stats.autodiff_knots
+    assert exact.autodiff_fallbacks == exact.stats.autodiff_fallbacks
+    assert np.all(np.isfinite(A)) and np.all(np.isfinite(B))
+    np.testing.assert_array_equal(A, A_fd)
+    np.testing.assert_array_equal(B, B_fd)
+
+
 def test_autodiff_with_point_contact_is_a_config_error():
     from drake_clutter.config import ConfigError
 

@@ -324,6 +324,11 @@ class PhysicsConfig:
     post_iterations: int = 10  # iLQR iterations of the Sec. V-B post-processing; ours
     post_variant: str = "evaluation"  # arm geometry of the post-processing's c_static; Sec.
     # V-B: it corrects collisions that appear when switching to the evaluation model
+    post_substeps: int = 6  # configurations per knot interval in the post-processing's
+    # c_static (their mean, the knot included; 1 = the knot alone); ours: the evaluation's arm
+    # passes every configuration between knots, and fig8's physics plan (wrist whipped from
+    # -1.6 to +3.2 rad/s at a knot) put a finger into the board 50 ms after a knot - a
+    # kinematic failure that c_static at the knots could not see (measured)
     tolerance: float = 1e-6  # relative cost decrease that stops iLQR (the solver's default);
     # ours: at 1e-4 the fig5 pre-processing stopped after a first short line-search step (2e-5)
     # with c_dynamic unchanged, at 1e-6 it went on to halve it in 10 iterations (measured)

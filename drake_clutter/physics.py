@@ -435,6 +435,7 @@ def check_config(config: Config) -> None:
               ("pre_iterations", cfg.pre_iterations >= 0, "at least 0"),
               ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
               ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
+              ("post_substeps", cfg.post_substeps >= 1, "at least 1"),
               ("force_stiffness", cfg.force_stiffness > 0, "positive"),
               ("hold_knots", cfg.hold_knots >= 0, "at least 0"),
               ("w_speed", cfg.w_speed >= 0, "non-negative"),

@@ -91,18 +91,21 @@ def _distance_row(c: Contact, columns: int, box_columns: dict[str, int] | None) 
 
 
 def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: float,
-                        exclude: tuple[str, ...] = ()) -> dict[str, Term]:
+                        exclude: tuple[str, ...] = (), shelf_only: bool = False
+                        ) -> dict[str, Term]:
     """Mean over ``substeps`` configurations on the segment (q_a, q_b] of the penetration of
     the arm and the shelf ("shelf") and of the arm and the boxes but ``exclude`` ("boxes"),
     boxes fixed, each a Term over (q_a, q_b) (16,): the baseline's approximation of a link's
-    convex hull between two knots (c_static_hull, c_dynamic). One distance query per
+    convex hull between two knots (c_static_hull, c_dynamic; the post-processing's c_static
+    with ``shelf_only``, which skips the boxes' distances). One distance query per
     configuration serves both."""
     zero = Term(0.0, np.zeros(2 * ARM_DIM), np.zeros((2 * ARM_DIM, 2 * ARM_DIM)))
     out = {"shelf": zero, "boxes": zero}
     for k in range(1, substeps + 1):
         lam = k / substeps
         q = (1 - lam) * np.asarray(q_a) + lam * np.asarray(q_b)
-        found = [c for c in geometry.contacts(q, None, d_safe) if c.obstacle not in exclude]
+        found = geometry.contacts(q, None, d_safe, "shelf" if shelf_only else "all")
+        found = [c for c in found if c.obstacle not in exclude]
         S = np.hstack([(1 - lam) * np.eye(ARM_DIM), lam * np.eye(ARM_DIM)])
         for kind in out:
             part = [c for c in found if (c.obstacle == SHELF) == (kind == "shelf")]
@@ -341,7 +344,8 @@ class KinematicObjective:
     ``mode`` "pre": w_static_hull c_static_hull + w_dynamic c_dynamic (not the target) + w_vel
     c_vel per interval, c_grasp to ``p_pregrasp`` and c_grp_horiz at the end, their Table II
     weights times ``pre_terminal_weight`` (they stand in for the baseline's hard constraint).
-    ``mode`` "post": w_static c_static at q^(t+1) + w_match c_match + w_match_vel c_match_vel
+    ``mode`` "post": w_static c_static (the mean over ``post_substeps`` configurations of
+    the interval up to q^(t+1)) + w_match c_match + w_match_vel c_match_vel
     against ``q_ref`` (T + 1, 8), + w_speed c_speed over knots ``knot_time`` (s) apart (ours:
     pushing the arm out of the shelf made fig5's plan exceed a joint speed limit, measured).
     """
@@ -366,12 +370,12 @@ class KinematicObjective:
             return {"static_hull": hull["shelf"].scaled(self.w_static_hull),
                     "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
                     "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
-        found = self.geometry.contacts(u, None, self.d_safe, "shelf")
-        static = penetration_term(found, self.d_safe, ARM_DIM)
+        static = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
+                                     shelf_only=True)["shelf"]
         on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
         match = costs.match(u, self.q_ref[t + 1])
         mvel = costs.match_velocity(u, q, self.q_ref[t + 1], self.q_ref[t])
-        return {"static": _pull(static, on_u).scaled(cfg.w_static),
+        return {"static": static.scaled(cfg.w_static),
                 "match": _pull(match, on_u).scaled(cfg.w_match),
                 "match_vel": _reorder(mvel).scaled(cfg.w_match_vel),
                 "speed": speed_limit(q, u, self._max_step).scaled(cfg.w_speed)}

@@ -17,8 +17,9 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `physic
    c_static keeps the capsule gripper: the sphere (radius 0.118 m) cannot reach the pre-grasp
    without sinking into the board (c_static ~1e3 on fig5, measured);
 3. ``full``: the remaining ``iterations - sphere_iterations`` with the capsule arm;
-4. ``post`` (Sec. V-B): the kinematic arm again, c_static in the evaluation geometry + c_match
-   + c_match_vel to the physics plan.
+4. ``post`` (Sec. V-B): the kinematic arm again, c_static in the evaluation geometry (at
+   ``post_substeps`` configurations per knot interval) + c_match + c_match_vel to the physics
+   plan.
 
 Each phi stage prunes the boxes against its initial path (`pruning.make_pruned_spec`), settles
 the kept boxes in phi under the arm at the start configuration (``dynamics.settle_time``),

@@ -277,6 +277,10 @@ class PhysicsConfig:
 
     iterations: int = 30  # Sec. V: iLQR capped at 30 iterations
     sphere_iterations: int = 10  # Sec. V: first 10 iterations with the sphere gripper proxy
+    sphere_target: Literal["passes", "parked"] = "parked"  # the target in the sphere stage's
+    # phi (ours; the sphere engulfs the target at the pre-grasp): "passes" = a dynamic box
+    # the arm passes through (other boxes still push it; c_grasp follows it); "parked" =
+    # welded out of the world (c_grasp aims at its resting pose; boxes pass its place)
     w_static: float = 1e3  # Table II
     w_acc: float = 1e-3  # Table II
     w_force: float = 0.01  # Table II says 10; ours: with our force vector (N, the summed

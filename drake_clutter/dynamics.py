@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import hashlib
 import pickle
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from functools import cached_property
 
 import numpy as np
@@ -232,8 +232,8 @@ class PhiSpec:
     """Everything that defines one phi: picklable, so worker processes can build their own.
 
     ``dynamic_boxes`` are the kept boxes in state order; ``frozen`` maps every other scene box
-    to the 7-number pose (quaternion wxyz, p_WB) where it is welded.
-    """
+    to the 7-number pose (quaternion wxyz, p_WB) where it is welded; the arm passes through
+    the boxes in ``arm_passes``."""
 
     scene: Scene
     dynamic_boxes: tuple[str, ...]
@@ -242,6 +242,7 @@ class PhiSpec:
     config: DynamicsConfig = DynamicsConfig()
     world: WorldConfig = WorldConfig()
     variant: str = "capsules"
+    arm_passes: tuple[str, ...] = ()
 
     @cached_property
     def key(self) -> str:
@@ -249,16 +250,14 @@ class PhiSpec:
         return hashlib.sha1(pickle.dumps(self._fields())).hexdigest()
 
     def _fields(self) -> tuple:
-        return (self.scene, self.dynamic_boxes, self.frozen, self.knot_time, self.config,
-                self.world, self.variant)
+        return tuple(getattr(self, f.name) for f in fields(self))
 
     def __getstate__(self):
         return self._fields()
 
     def __setstate__(self, state):
-        for name, value in zip(("scene", "dynamic_boxes", "frozen", "knot_time", "config",
-                                "world", "variant"), state, strict=True):
-            object.__setattr__(self, name, value)
+        for f, value in zip(fields(self), state, strict=True):
+            object.__setattr__(self, f.name, value)
 
     @property
     def layout(self) -> StateLayout:
@@ -278,12 +277,13 @@ class PhiSpec:
 
 def make_spec(scene: Scene, dynamic_boxes, box_states: dict[str, np.ndarray] | None = None,
               knot_time: float = 0.2, config: DynamicsConfig | None = None,
-              world: WorldConfig | None = None, variant: str = "capsules") -> PhiSpec:
-    """A PhiSpec keeping ``dynamic_boxes`` (in that order) and welding the other scene boxes
-    where ``box_states`` (name -> 13 numbers; default: the scene's resting poses) puts them."""
+              world: WorldConfig | None = None, variant: str = "capsules",
+              arm_passes: tuple[str, ...] = ()) -> PhiSpec:
+    """A PhiSpec keeping ``dynamic_boxes`` (in order), welding the others where ``box_states``
+    (name -> 13 numbers; default: resting poses) puts them; the arm passes ``arm_passes``."""
     states = scene_box_states(scene) if box_states is None else box_states
     dynamic = tuple(dynamic_boxes)
-    unknown = set(dynamic) - {b.name for b in scene.boxes}
+    unknown = (set(dynamic) | set(arm_passes)) - {b.name for b in scene.boxes}
     if unknown:
         raise ValueError(f"boxes not in the scene: {', '.join(sorted(unknown))}")
     frozen = tuple((b.name, tuple(float(v) for v in states[b.name][:7]))
@@ -291,7 +291,7 @@ def make_spec(scene: Scene, dynamic_boxes, box_states: dict[str, np.ndarray] | N
     if knot_time <= 0:
         raise ValueError(f"knot_time must be positive, got {knot_time}")
     return PhiSpec(scene, dynamic, frozen, float(knot_time), config or DynamicsConfig(),
-                   world or WorldConfig(), variant)
+                   world or WorldConfig(), variant, tuple(arm_passes))
 
 
 def check_config(config: DynamicsConfig) -> None:
@@ -352,7 +352,7 @@ class Phi:
         world_config = replace(spec.world, time_step=spec.sim_time_step)
         self.world: World = build_dynamics_world(
             spec.scene, spec.variant, world_config, frozen_boxes=spec.frozen_poses(),
-            point_contact=point_contact_geometry(spec.config))
+            point_contact=point_contact_geometry(spec.config), arm_passes=spec.arm_passes)
         self.plant = self.world.plant
         self.root = self.world.diagram.CreateDefaultContext()
         self.context = self.plant.GetMyMutableContextFromRoot(self.root)

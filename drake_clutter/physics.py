@@ -301,7 +301,12 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
     spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
                                     variant)
     held = (scene.target,) if variant == "sphere_gripper" else ()
-    if held:  # the sphere encloses the open gripper, where the target belongs at the end
+    if held and config.physics.sphere_target == "passes":
+        dynamic = [*spec.dynamic_boxes, *[n for n in held if n not in spec.dynamic_boxes]]
+        spec = make_spec(scene, dynamic, None, knot_time, config.dynamics, config.world,
+                         variant, arm_passes=held)
+        held = ()
+    elif held:  # the sphere encloses the open gripper, where the target belongs at the end
         states = scene_box_states(scene)
         states[scene.target] = states[scene.target].copy()
         states[scene.target][4:7] = PARKED_TARGET

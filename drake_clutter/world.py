@@ -17,7 +17,7 @@ position; metres, radians, seconds. W is the scene's world frame (see `scenes`).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -322,7 +322,8 @@ def _filter_point_contact_pairs(parts: dict, plant: MultibodyPlant, scene_graph,
 def build_dynamics_world(scene: Scene, variant: str = "capsules",
                          config: WorldConfig | None = None, meshcat=None, *,
                          frozen_boxes: Mapping[str, RigidTransform] | None = None,
-                         point_contact: PointContactBoxes | None = None) -> World:
+                         point_contact: PointContactBoxes | None = None,
+                         arm_passes: Sequence[str] = ()) -> World:
     """phi's world: discrete SAP, hydroelastic compliant boxes, rigid shelf, PD-tracked arm.
 
     ``frozen_boxes`` (name -> X_WB) welds those boxes to W at the given poses: static geometry
@@ -330,6 +331,7 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
     ``point_contact`` replaces the hydroelastic boxes by point-contact ones (see
     `PointContactBoxes`). Without it the boxes carry ``config.hydroelastic_margin`` and, with
     ``config.robot_hydroelastic``, the arm is rigid hydroelastic and does not touch the shelf.
+    The arm passes through the boxes named in ``arm_passes`` (they still touch everything else).
     """
     config = config or WorldConfig()
     builder = RobotDiagramBuilder(time_step=config.time_step)
@@ -353,6 +355,11 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
         builder.scene_graph().collision_filter_manager().Apply(
             CollisionFilterDeclaration().ExcludeBetween(robot_geometry,
                                                         _geometries(plant, parts["shelf"])))
+    if arm_passes:
+        passed = GeometrySet([g for name in arm_passes for g in plant.GetCollisionGeometriesForBody(
+            plant.GetBodyByName(name, parts["boxes"]))])
+        builder.scene_graph().collision_filter_manager().Apply(
+            CollisionFilterDeclaration().ExcludeBetween(robot_geometry, passed))
     if meshcat is not None:
         _add_meshcat(builder, meshcat)
     diagram = builder.Build()

@@ -137,6 +137,22 @@ def test_reach_pushes_kept_boxes_and_frozen_boxes_are_welded(pruned10, scene10):
         np.testing.assert_allclose(X.translation(), pose[4:], atol=1e-12)
 
 
+def test_the_arm_passes_through_the_boxes_named_in_arm_passes(pruned10, scene10, reach10):
+    spec, _, _, _, xs = pruned10
+    passing = make_spec(scene10, spec.dynamic_boxes, knot_time=spec.knot_time,
+                        config=spec.config, arm_passes=spec.dynamic_boxes)
+    phi = Phi(passing)
+    x0 = phi.settle(initial_state(passing.layout, reach10[0], scene_box_states(scene10)))
+    ys = phi.rollout(x0, reach10[1:])
+    layout = spec.layout
+
+    def moved(states):
+        return np.linalg.norm(layout.boxes(states[-1])[:, 4:7] - layout.boxes(states[0])[:, 4:7],
+                              axis=1).max()
+    assert moved(xs) > 0.02  # the same reach shoves boxes it may touch
+    assert moved(ys) < 1e-3  # m: through boxes it passes, nothing is pushed
+
+
 @pytest.mark.slow
 def test_pruned_phi_agrees_with_the_full_scene(pruned10, scene10, reach10):
     """Boxes pruning froze barely move in the unpruned phi, and the kept ones end close."""

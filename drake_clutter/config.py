@@ -283,6 +283,13 @@ class PhysicsConfig:
     # welded out of the world (c_grasp aims at its resting pose; boxes pass its place)
     w_static: float = 1e3  # Table II
     w_acc: float = 1e-3  # Table II
+    w_static_deep: float = 0.0  # ours: weight of c_static's steep part in the phi stages,
+    # 1/2 (depth beyond static_depth)^2 per arm-shelf pair and knot (phi's arm passes through
+    # the shelf, and the phi stages left it 1-3 cm deep in the board on fig8, measured); 0: off
+    static_depth: float = 0.003  # m the arm may sink into the shelf before the steep part;
+    # ours: below the evaluation's static_penetration (5 mm)
+    phi_static_substeps: int = 1  # configurations per knot interval in the phi stages'
+    # c_static (their mean, the knot included; 1 = the knot alone); ours, as post_substeps
     w_force: float = 0.01  # Table II says 10; ours: with our force vector (N, the summed
     # contact forces of the arm and of each box, Sec. V) pushing a 1.6 kg box for one knot
     # then costs ~880, as much as ending 0.9 m off the target, so iLQR gave up the grasp (fig5:

@@ -81,6 +81,22 @@ def penetration_term(contacts: list[Contact], d_safe: float, columns: int,
     return Term(value, grad, hess)
 
 
+def deep_penetration_term(contacts: list[Contact], depth: float, columns: int) -> Term:
+    """sum over ``contacts`` of 1/2 (-d - depth)^2 where the arm sinks deeper than ``depth``
+    (m) into the obstacle: the phi stages' steep part of c_static (Gauss-Newton Hessian J'J,
+    exact beyond ``depth``), as a Term over ``columns`` numbers (the arm's 8 first)."""
+    value, grad, hess = 0.0, np.zeros(columns), np.zeros((columns, columns))
+    for c in contacts:
+        excess = -c.distance - depth
+        if excess <= 0.0:
+            continue
+        J = _distance_row(c, columns, None)
+        value += 0.5 * excess * excess
+        grad -= excess * J
+        hess += np.outer(J, J)
+    return Term(value, grad, hess)
+
+
 def _distance_row(c: Contact, columns: int, box_columns: dict[str, int] | None) -> np.ndarray:
     J = np.zeros(columns)
     J[:ARM_DIM] = c.d_dq
@@ -91,14 +107,14 @@ def _distance_row(c: Contact, columns: int, box_columns: dict[str, int] | None) 
 
 
 def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: float,
-                        exclude: tuple[str, ...] = (), shelf_only: bool = False
-                        ) -> dict[str, Term]:
+                        exclude: tuple[str, ...] = (), shelf_only: bool = False,
+                        deep: tuple[float, float] = (0.0, 0.0)) -> dict[str, Term]:
     """Mean over ``substeps`` configurations on the segment (q_a, q_b] of the penetration of
     the arm and the shelf ("shelf") and of the arm and the boxes but ``exclude`` ("boxes"),
     boxes fixed, each a Term over (q_a, q_b) (16,): the baseline's approximation of a link's
-    convex hull between two knots (c_static_hull, c_dynamic; the post-processing's c_static
-    with ``shelf_only``, which skips the boxes' distances). One distance query per
-    configuration serves both."""
+    convex hull between two knots (c_static_hull, c_dynamic; c_static with ``shelf_only``,
+    which skips the boxes' distances). ``deep`` = (weight, depth): the shelf part adds weight
+    x `deep_penetration_term` (depth, m). One distance query per configuration serves both."""
     zero = Term(0.0, np.zeros(2 * ARM_DIM), np.zeros((2 * ARM_DIM, 2 * ARM_DIM)))
     out = {"shelf": zero, "boxes": zero}
     for k in range(1, substeps + 1):
@@ -110,6 +126,8 @@ def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: 
         for kind in out:
             part = [c for c in found if (c.obstacle == SHELF) == (kind == "shelf")]
             term = penetration_term(part, d_safe, ARM_DIM)
+            if kind == "shelf" and deep[0] > 0.0:
+                term = _add(term, deep_penetration_term(part, deep[1], ARM_DIM), deep[0])
             if term.value != 0.0:
                 out[kind] = _add(out[kind], _pull(term, S), 1.0 / substeps)
     return out
@@ -205,16 +223,35 @@ class PhysicsObjective:
         """Weighted Terms over dz (nz,) of the costs on one knot's state (t >= 1)."""
         cfg, q = self.config, z[:ARM_DIM]
         contacts = self.geometry.contacts(q, self.box_poses(z), self.d_safe)
-        shelf = [c for c in contacts if c.obstacle == SHELF]
-        if self.static_geometry is not None:
-            shelf = self.static_geometry.contacts(q, None, self.d_safe, "shelf")
-        out = {"static": penetration_term(shelf, self.d_safe, self.nz).scaled(cfg.w_static)}
+        out = {"static": self._static(z, contacts)}
         if self.forces is None:
             out["force"] = self._force(contacts).scaled(cfg.w_force)
         out.update(self._box_terms(z))
         if terminal:
             out.update(self._terminal(z))
         return out
+
+    def _static(self, z: np.ndarray, contacts: list[Contact]) -> Term:
+        """Weighted c_static over dz: at the knot from ``contacts`` (``phi_static_substeps``
+        1), else the mean over that many configurations on the segment from q^(t-1) (z's
+        tail) to q^t; in ``static_geometry`` if given. With its steep part beyond
+        ``static_depth`` (``w_static_deep``)."""
+        cfg = self.config
+        geometry = self.static_geometry or self.geometry
+        deep = (cfg.w_static_deep / cfg.w_static if cfg.w_static > 0 else 0.0, cfg.static_depth)
+        q_prev = z[self.nx:self.nx + ARM_DIM]
+        if cfg.phi_static_substeps > 1:
+            term = segment_penetration(geometry, q_prev, z[:ARM_DIM], cfg.phi_static_substeps,
+                                       self.d_safe, shelf_only=True, deep=deep)["shelf"]
+            columns = [*range(self.ndx, self.ndx + ARM_DIM), *range(ARM_DIM)]
+            return _embed(term, columns, self.nz).scaled(cfg.w_static)
+        shelf = [c for c in contacts if c.obstacle == SHELF]
+        if self.static_geometry is not None:
+            shelf = self.static_geometry.contacts(z[:ARM_DIM], None, self.d_safe, "shelf")
+        static = penetration_term(shelf, self.d_safe, self.nz)
+        if deep[0] > 0.0:
+            static = _add(static, deep_penetration_term(shelf, deep[1], self.nz), deep[0])
+        return static.scaled(cfg.w_static)
 
     def _force(self, contacts: list[Contact]) -> Term:
         touching = [c for c in contacts if c.obstacle != SHELF and c.distance < 0.0

@@ -7,6 +7,8 @@ moved into the arm, so that every geometric term is active.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
@@ -15,7 +17,11 @@ from scipy.spatial.transform import Rotation
 from drake_clutter import scenes
 from drake_clutter.config import PhysicsConfig
 from drake_clutter.dynamics import StateLayout, initial_state, pose_to_box_state, scene_box_states
-from drake_clutter.physics_costs import KinematicObjective, PhysicsObjective
+from drake_clutter.physics_costs import (
+    KinematicObjective,
+    PhysicsObjective,
+    deep_penetration_term,
+)
 from drake_clutter.physics_geometry import SHELF, ArmGeometry
 
 # The pre-grasp configuration of fig5_large_small (alpha = 0.3 baseline, last knot, board
@@ -102,6 +108,30 @@ def test_shelf_contacts_are_labelled(geometry):
     assert found and all(c.obstacle == SHELF and c.d_dbox is None for c in found)
 
 
+def test_deep_static_term_grows_beyond_its_depth_and_its_gradient_matches(geometry):
+    """The phi stages' steep c_static part: 0 down to static_depth, then 1/2 excess^2 per
+    pair, with the distance rows' gradient (checked against differences on an arm lowered
+    into the board)."""
+    q = Q_PREGRASP.copy()
+    depth = 0.003
+
+    def deepest(q_arm):
+        return min(c.distance for c in geometry.contacts(q_arm, None, 0.05, "shelf"))
+
+    while deepest(q) > -0.01:  # lower the shoulder until the arm is 1 cm in the board
+        q[1] += 0.005
+    contacts = geometry.contacts(q, None, 0.05, "shelf")
+    term = deep_penetration_term(contacts, depth, 8)
+    excess = [-c.distance - depth for c in contacts if -c.distance > depth]
+    assert term.value == pytest.approx(0.5 * sum(e * e for e in excess)) and term.value > 0
+    numeric = _numeric_gradient(
+        lambda v: deep_penetration_term(geometry.contacts(v, None, 0.05, "shelf"), depth,
+                                        8).value, q)
+    np.testing.assert_allclose(term.gradient, numeric, atol=1e-6)
+    assert np.all(np.linalg.eigvalsh(term.hessian) > -1e-12)
+    assert deep_penetration_term(contacts, 0.05, 8).value == 0.0  # nothing that deep
+
+
 # ----------------------------------------------------------------------------- objective
 
 
@@ -149,6 +179,31 @@ def test_state_terms_gradients_match_differences(physics_problem, terminal):
         np.testing.assert_allclose(term.gradient, numeric, atol=1e-3 * scale, err_msg=name)
         eig = np.linalg.eigvalsh(0.5 * (term.hessian + term.hessian.T))
         assert np.all(eig > -1e-6 * scale), name  # Gauss-Newton: positive semi-definite
+
+
+def test_static_between_knots_with_its_steep_part_matches_differences(scene, geometry):
+    """The phi stages' c_static over the segment from q^(t-1) (z's tail) to q^t, with the
+    steep part: its gradient over both knots is the numerical one, and the steep part adds to
+    the linear one where the arm is 12 mm in the board."""
+    layout = StateLayout(("target",))
+    q_low = Q_PREGRASP.copy()
+    while min(c.distance for c in geometry.contacts(q_low, None, 0.05, "shelf")) > -0.012:
+        q_low[1] += 0.005
+    z = np.concatenate([initial_state(layout, q_low, scene_box_states(scene)), Q_PREGRASP])
+    config = PhysicsConfig(phi_static_substeps=4, w_static_deep=1e7)
+    objective = PhysicsObjective(geometry, layout, config, z[:layout.nx], "target", 0.2, 0.02)
+    term = objective.state_terms(z, False)["static"]
+    numeric = _numeric_gradient(
+        lambda d: objective.state_terms(_retract_z(layout, z, d), False)["static"].value,
+        np.zeros(objective.nz))
+    np.testing.assert_allclose(term.gradient, numeric, atol=1e-3 * np.abs(numeric).max())
+    assert np.abs(term.gradient[layout.ndx:]).max() > 0  # q^(t-1) matters too
+    knot_only = PhysicsObjective(geometry, layout, replace(config, phi_static_substeps=1),
+                                 z[:layout.nx], "target", 0.2, 0.02)
+    shallow = PhysicsConfig(phi_static_substeps=4)
+    plain = PhysicsObjective(geometry, layout, shallow, z[:layout.nx], "target", 0.2, 0.02)
+    assert term.value > plain.state_terms(z, False)["static"].value > 0  # the steep part
+    assert knot_only.state_terms(z, False)["static"].value > 0
 
 
 def test_smooth_state_hessians_match_differences(physics_problem):

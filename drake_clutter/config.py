@@ -280,12 +280,14 @@ class PhysicsConfig:
     sphere_target: Literal["passes", "parked"] = "parked"  # the target in the sphere stage's
     # phi (ours; the sphere engulfs the target at the pre-grasp): "passes" = a dynamic box
     # the arm passes through (other boxes still push it; c_grasp follows it); "parked" =
-    # welded out of the world (c_grasp aims at its resting pose; boxes pass its place)
+    # welded out of the world (c_grasp aims at its resting pose; boxes pass its place).
+    # Measured ("passes"): fig6 worse, fig8 the same kinematic failure (README)
     w_static: float = 1e3  # Table II
     w_acc: float = 1e-3  # Table II
     w_static_deep: float = 0.0  # ours: weight of c_static's steep part in the phi stages,
     # 1/2 (depth beyond static_depth)^2 per arm-shelf pair and knot (phi's arm passes through
     # the shelf, and the phi stages left it 1-3 cm deep in the board on fig8, measured); 0: off
+    # (at 1e7, with or without phi_static_substeps 6, no behaviour scene improved: README)
     static_depth: float = 0.003  # m the arm may sink into the shelf before the steep part;
     # ours: below the evaluation's static_penetration (5 mm)
     phi_static_substeps: int = 1  # configurations per knot interval in the phi stages'

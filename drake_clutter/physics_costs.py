@@ -34,6 +34,9 @@ Penetration (c_static, c_static_hull, c_dynamic) is `clearance.smooth_penetratio
 signed distance (linear beyond contact, quadratic inside d_safe), one function for both
 planners; its Hessian here is the Gauss-Newton (1/d_safe) J'J of the quadratic part, kept
 beyond contact too (the linear part has none, and iLQR needs curvature to take a step).
+Optional in the phi stages (`PhysicsConfig.w_static_deep`, ``phi_static_substeps``; off by
+default): a steep part 1/2 (depth - static_depth)^2 (`deep_penetration_term`) and c_static as
+the mean over configurations between q^(t-1) (z's tail) and q^t.
 
 **The kinematic problems** (`KinematicObjective`, Sec. V-A and V-B): the boxes held fixed, the
 state is q^t (8) and the control q^(t+1). Pre-processing: c_static_hull + c_dynamic (arm vs the

@@ -1,35 +1,45 @@
 """How well phi predicts the judge: phi and Bullet on the same plans (issues 5 and 6).
 
-    python benchmarks/bench_fidelity.py [--scenes fig5_large_small ...] [--set dynamics.substeps=5]
+    python benchmarks/bench_fidelity.py [--angles K] [--generated N --clutter M --seed S]
+        [--set FIELD=VALUE ...] [--variant "FIELD=VALUE,FIELD=VALUE" ...] [--verbose]
 
-The physics planner can only be as good as phi's prediction of what Bullet will do. For each
-behaviour scene (Sec. VI-A) the baseline plans its provenance angle; that plan is replayed in
-Bullet (`evaluation.evaluate`: hard contacts, until the boxes rest) and rolled out in phi with
-every box dynamic (no pruning), then ``--settle`` seconds with the arm held. Each box is
-classed as in Sec. III on both final states: fallen (off the board), tipped (tilt over
-``evaluation.max_tilt``) or standing. A kinematic failure in Bullet stops its replay early, so
-its boxes are left out of the comparison.
+The physics planner can only be as good as phi's prediction of what Bullet will do. The plans
+are the baseline's: on each behaviour scene (Sec. VI-A) at its provenance angle, or with
+``--angles K`` at K approach angles; ``--generated N`` adds N random bookshelf scenes of
+``--clutter`` boxes (seeds ``--seed`` on). Each plan is replayed once in Bullet
+(`evaluation.evaluate`: hard contacts, until the boxes rest) and rolled out in phi with every
+box dynamic (no pruning), then ``--settle`` seconds with the arm held, once for the reference
+configuration (``--set``) and once per ``--variant`` (overrides on top of it): the variants are
+judged on the same plans and the same Bullet replays. Each box is classed as in Sec. III on
+both final states: fallen (off the board), tipped (tilt over ``evaluation.max_tilt``) or
+standing. A kinematic failure in Bullet stops its replay early, so its boxes are left out.
 
-Printed per scene: each box's class, displacement (cm) and tilt (deg) in Bullet | phi; then
-the boxes whose class agrees, and the mean |displacement difference| over the boxes that moved
-more than 1 cm in either. The seconds are phi's rollout.
+Printed per configuration: the boxes whose class agrees (all, and those that moved more than
+1 cm in either engine: the ones that say something), the mean |displacement difference| of
+the moved boxes (capped at 1 m), the boxes phi threw (moved over 1 m where Bullet moved them
+under 30 cm: a box that phi launches off the board), and phi's rollout seconds.
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drake_clutter import scenes
+from drake_clutter.approach import approach_angles
 from drake_clutter.baseline import plan_baseline
 from drake_clutter.config import load_config
 from drake_clutter.dynamics import Phi, initial_state, make_spec, scene_box_states
 from drake_clutter.evaluation import evaluate, off_the_board, tilt_angle
+from drake_clutter.generators import generate_scene
 
 SCENES = ("fig5_large_small", "fig6_push_sideways", "fig7_cascade", "fig8_snaking")
+MOVED_CM = 1.0  # a box that moved less than this in both engines says nothing
+THROWN_CM, SHORT_CM = 100.0, 30.0  # phi over THROWN_CM where Bullet under SHORT_CM: thrown
 
 
 def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list[str]:
@@ -40,8 +50,8 @@ def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list
 
 
 def phi_final(scene, trajectory, config, settle: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Box positions (n, 3) and tilts (n,) after phi rolls the plan out with every box dynamic
-    and holds the arm ``settle`` s; and the rollout's seconds."""
+    """Box positions (n, 3, W, m) and tilts (n, rad) after phi rolls the plan out with every
+    box dynamic and holds the arm ``settle`` s; and the rollout's seconds."""
     names = [b.name for b in scene.boxes]
     knot_time = float(np.diff(trajectory.times[:2])[0])
     spec = make_spec(scene, names, None, knot_time, config.dynamics, config.world, "capsules")
@@ -56,55 +66,123 @@ def phi_final(scene, trajectory, config, settle: float) -> tuple[np.ndarray, np.
     return boxes[:, 4:7], tilt_angle(R), seconds
 
 
-def compare(name: str, config, settle: float) -> tuple[int, int]:
-    """Prints one scene's comparison; returns (boxes whose class agrees, boxes compared)."""
-    scene = scenes.load_shipped_scene(name)
-    alpha = float(scene.provenance.parameters["alpha"])
-    (candidate,) = plan_baseline(scene, config.baseline, alphas=[alpha])
-    if not candidate.ok:
-        print(f"{name}: the baseline found no plan ({candidate.reason})")
-        return 0, 0
-    outcome = evaluate(scene, candidate.trajectory, config.evaluation)
-    p_phi, tilt_phi, seconds = phi_final(scene, candidate.trajectory, config, settle)
-    start = np.array([[b.pose[0], b.pose[1], scene.box_center_z(b)] for b in scene.boxes])
-    p_bullet = np.array([b.final_position for b in outcome.boxes])
-    tilt_bullet = np.array([b.tilt for b in outcome.boxes])
-    max_tilt = config.evaluation.max_tilt
-    c_bullet = classes(scene, p_bullet, tilt_bullet, max_tilt)
+@dataclass
+class Tally:
+    """One configuration's agreement with Bullet, summed over plans."""
+
+    agree: int = 0
+    boxes: int = 0
+    moved_agree: int = 0
+    moved: int = 0
+    thrown: int = 0
+    seconds: float = 0.0
+    errors: list = field(default_factory=list)
+
+    def line(self, label: str) -> str:
+        error = float(np.mean(self.errors)) if self.errors else 0.0
+        return (f"{label:40} classes {self.agree:3d}/{self.boxes:<3d} moved boxes "
+                f"{self.moved_agree:3d}/{self.moved:<3d} |d| {error:5.1f} cm thrown "
+                f"{self.thrown:2d} phi {self.seconds:6.1f} s")
+
+
+@dataclass
+class Replay:
+    """A plan and its Bullet result: what every configuration's phi is compared with."""
+
+    label: str
+    scene: object
+    trajectory: object
+    start: np.ndarray
+    p_bullet: np.ndarray
+    tilt_bullet: np.ndarray
+    kind: str
+
+
+def replays(scene_list, angles: int, config) -> list[Replay]:
+    """The baseline's plans on each scene (its provenance angle, or ``angles`` angles), each
+    replayed in Bullet; plans that end in a kinematic failure are left out (said so)."""
+    out = []
+    for name, scene in scene_list:
+        if angles == 1 and scene.provenance and "alpha" in scene.provenance.parameters:
+            alphas = [float(scene.provenance.parameters["alpha"])]
+        else:
+            alphas = approach_angles(replace(config.baseline, num_angles=angles))
+        for candidate in plan_baseline(scene, config.baseline, alphas=alphas):
+            label = f"{name} alpha {candidate.alpha:+.2f}"
+            if not candidate.ok:
+                print(f"{label}: no baseline plan ({candidate.reason})")
+                continue
+            o = evaluate(scene, candidate.trajectory, config.evaluation)
+            if o.kind == "kinematic_failure":
+                print(f"{label}: kinematic failure in Bullet (replay stopped early), left out")
+                continue
+            start = np.array([[b.pose[0], b.pose[1], scene.box_center_z(b)]
+                              for b in scene.boxes])
+            out.append(Replay(label, scene, candidate.trajectory, start,
+                              np.array([b.final_position for b in o.boxes]),
+                              np.array([b.tilt for b in o.boxes]), o.kind))
+    return out
+
+
+def compare(replay: Replay, config, settle: float, tally: Tally, verbose: bool) -> None:
+    """Rolls one plan out in phi under ``config`` and adds its agreement to ``tally``."""
+    scene, max_tilt = replay.scene, config.evaluation.max_tilt
+    p_phi, tilt_phi, seconds = phi_final(scene, replay.trajectory, config, settle)
+    c_bullet = classes(scene, replay.p_bullet, replay.tilt_bullet, max_tilt)
     c_phi = classes(scene, p_phi, tilt_phi, max_tilt)
-    moved_b = np.linalg.norm(p_bullet - start, axis=1) * 100
-    moved_p = np.linalg.norm(p_phi - start, axis=1) * 100
-    print(f"\n{name} (alpha {alpha:+.2f}): Bullet {outcome.kind}; phi rollout {seconds:.1f} s")
-    print(f"  {'box':16} {'Bullet':>8} {'cm':>6} {'deg':>4} | {'phi':>8} {'cm':>6} {'deg':>4}")
-    for i, box in enumerate(scene.boxes):
-        print(f"  {box.name:16} {c_bullet[i]:>8} {moved_b[i]:6.1f} "
-              f"{np.degrees(tilt_bullet[i]):4.0f} | {c_phi[i]:>8} "
-              f"{min(moved_p[i], 999.9):6.1f} {np.degrees(tilt_phi[i]):4.0f}")
-    if outcome.kind == "kinematic_failure":
-        print("  (kinematic failure in Bullet: its replay stopped early, not compared)")
-        return 0, 0
-    agree = sum(a == b for a, b in zip(c_bullet, c_phi, strict=True))
-    moving = (moved_b > 1.0) | (moved_p > 1.0)
-    error = np.minimum(np.abs(moved_b - moved_p), 100.0)[moving]  # fallen: capped at 1 m
-    print(f"  classes agree: {agree}/{len(c_phi)}; mean |displacement difference| of moved "
-          f"boxes: {error.mean() if len(error) else 0.0:.1f} cm (capped at 100)")
-    return agree, len(c_phi)
+    moved_b = np.linalg.norm(replay.p_bullet - replay.start, axis=1) * 100
+    moved_p = np.nan_to_num(np.linalg.norm(p_phi - replay.start, axis=1) * 100, nan=1e9)
+    agree = np.array([a == b for a, b in zip(c_bullet, c_phi, strict=True)])
+    moving = (moved_b > MOVED_CM) | (moved_p > MOVED_CM)
+    tally.agree += int(agree.sum())
+    tally.boxes += len(agree)
+    tally.moved_agree += int(agree[moving].sum())
+    tally.moved += int(moving.sum())
+    tally.thrown += int(np.sum((moved_p > THROWN_CM) & (moved_b < SHORT_CM)))
+    tally.errors.extend(np.minimum(np.abs(moved_b - moved_p), 100.0)[moving])
+    tally.seconds += seconds
+    if verbose:
+        print(f"\n{replay.label}: Bullet {replay.kind}; phi rollout {seconds:.1f} s")
+        print(f"  {'box':16} {'Bullet':>8} {'cm':>6} {'deg':>4} | {'phi':>8} {'cm':>6} {'deg':>4}")
+        for i, box in enumerate(scene.boxes):
+            print(f"  {box.name:16} {c_bullet[i]:>8} {moved_b[i]:6.1f} "
+                  f"{np.degrees(replay.tilt_bullet[i]):4.0f} | {c_phi[i]:>8} "
+                  f"{min(moved_p[i], 999.9):6.1f} {np.degrees(tilt_phi[i]):4.0f}")
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scenes", nargs="+", default=list(SCENES))
+    parser.add_argument("--scenes", nargs="*", default=list(SCENES))
+    parser.add_argument("--angles", type=int, default=1,
+                        help="baseline angles per scene (1: the scene's provenance angle)")
+    parser.add_argument("--generated", type=int, default=0, help="random bookshelf scenes")
+    parser.add_argument("--clutter", type=int, default=10, help="boxes per generated scene")
+    parser.add_argument("--seed", type=int, default=0, help="first generated scene's seed")
     parser.add_argument("--settle", type=float, default=2.0, help="s the arm holds after the plan")
     parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
+    parser.add_argument("--variant", action="append", default=[],
+                        metavar="FIELD=VALUE[,FIELD=VALUE]")
+    parser.add_argument("--verbose", action="store_true", help="every box of every plan")
     args = parser.parse_args(argv)
+    if args.angles < 1 or args.generated < 0:
+        parser.error("--angles must be >= 1 and --generated >= 0")
     config = load_config(None, args.set)
+    variants = [("reference " + " ".join(args.set), config)] + [
+        (v, load_config(None, [*args.set, *v.split(",")])) for v in args.variant]
+    scene_list = [(n, scenes.load_shipped_scene(n)) for n in args.scenes] + [
+        (f"bookshelf{args.clutter}-{s}", generate_scene("bookshelf", args.clutter, s))
+        for s in range(args.seed, args.seed + args.generated)]
     print(f"phi: {config.dynamics.substeps} sub-steps a {config.baseline.knot_time} s knot, "
           f"modulus {config.world.hydroelastic_modulus:g} Pa")
-    agree = total = 0
-    for name in args.scenes:
-        a, n = compare(name, config, args.settle)
-        agree, total = agree + a, total + n
-    print(f"\nall scenes: classes agree for {agree}/{total} boxes")
+    plans = replays(scene_list, args.angles, config)
+    print(f"{len(plans)} plans replayed in Bullet")
+    tallies = [Tally() for _ in variants]
+    for replay in plans:
+        for (_, cfg), tally in zip(variants, tallies, strict=True):
+            compare(replay, cfg, args.settle, tally, args.verbose and cfg is config)
+    print()
+    for (label, _), tally in zip(variants, tallies, strict=True):
+        print(tally.line(label))
     return 0
 
 

@@ -99,6 +99,10 @@ class WorldConfig:
     point_stiffness: float = 1.0e5  # N/m for point-contact fallback pairs; ours
     arm_kp: float = 4000.0  # N m/rad (N/m for fingers) PD stiffness: the arm is kinematic (Sec. I)
     arm_kd: float = 100.0  # N m s/rad PD damping; ours
+    contact_approximation: Literal["sap", "similar", "lagged"] = "sap"  # phi's discrete
+    # contact model (Drake's DiscreteContactApproximation; all solved by SAP): "sap" = linear
+    # Kelvin-Voigt dissipation (relaxation_time); "similar" / "lagged" = Hunt-Crossley
+    # dissipation (hunt_crossley_dissipation); ours
     near_rigid_threshold: float = 1.0  # SAP's near-rigid threshold beta (contacts stiffer
     # than it allows saturate); Drake's default. Measured: 1e-3 made phi's Jacobians 10-100x
     # larger in a push and finite differences worse

@@ -43,6 +43,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from drake_clutter.config import ConfigError
 from drake_clutter.derivatives_autodiff import AutoDiffPhi
 from drake_clutter.dynamics import ARM_DIM, ARM_NODE, BOX_TANGENT, NU, Phi, PhiSpec, StateLayout
 
@@ -272,6 +273,13 @@ class PhiDynamics:
     """
 
     def __init__(self, spec: PhiSpec, pool: WorkerPool | None = None):
+        if spec.config.derivative_method != "fd" and spec.world.contact_approximation != "sap":
+            raise ConfigError(
+                "<configuration>", "dynamics.derivative_method",
+                f"must be 'fd' with world.contact_approximation "
+                f"{spec.world.contact_approximation!r} (Drake's AutoDiffXd derivatives under "
+                f"Hunt-Crossley contact did not match themselves or finite differences), got "
+                f"{spec.config.derivative_method!r}")
         self.spec = spec
         self.config = spec.config
         self.layout = spec.layout

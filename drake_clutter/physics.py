@@ -462,6 +462,11 @@ def check_config(config: Config) -> None:
         if not ok:
             raise ConfigError("<configuration>", f"physics.{name}",
                               f"must be {what}, got {getattr(cfg, name)!r}")
+    if config.dynamics.derivative_method != "fd" and config.world.contact_approximation != "sap":
+        raise ConfigError("<configuration>", "dynamics.derivative_method",
+                          f"must be 'fd' with world.contact_approximation "
+                          f"{config.world.contact_approximation!r} (see `PhiDynamics`), got "
+                          f"{config.dynamics.derivative_method!r}")
 
 
 def plan_physics(scene: Scene, config: Config | None = None,

@@ -336,7 +336,10 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
     config = config or WorldConfig()
     builder = RobotDiagramBuilder(time_step=config.time_step)
     plant = builder.plant()
-    plant.set_discrete_contact_approximation(DiscreteContactApproximation.kSap)
+    plant.set_discrete_contact_approximation({
+        "sap": DiscreteContactApproximation.kSap,
+        "similar": DiscreteContactApproximation.kSimilar,
+        "lagged": DiscreteContactApproximation.kLagged}[config.contact_approximation])
     plant.set_sap_near_rigid_threshold(config.near_rigid_threshold)
     plant.set_contact_model(ContactModel.kHydroelasticWithFallback if point_contact is None
                             else ContactModel.kPoint)

@@ -475,6 +475,8 @@ def test_bad_physics_config_is_a_config_error(scene):
         plan_physics(scene, load_config(None, ["physics.hull_substeps=0"]), [])
     with pytest.raises(ConfigError, match="physics.step_limit_fraction"):
         plan_physics(scene, load_config(None, ["physics.step_limit_fraction=0"]), [])
+    with pytest.raises(ConfigError, match="dynamics.derivative_method"):
+        plan_physics(scene, load_config(None, ["world.contact_approximation=similar"]), [])
 
 
 # ----------------------------------------------------------------------------- behaviours

@@ -1,7 +1,8 @@
 """How well phi predicts the judge: phi and Bullet on the same plans (issues 5 and 6).
 
     python benchmarks/bench_fidelity.py [--angles K] [--generated N --clutter M --seed S]
-        [--set FIELD=VALUE ...] [--variant "FIELD=VALUE,FIELD=VALUE" ...] [--verbose]
+        [--set FIELD=VALUE ...] [--variant "FIELD=VALUE,FIELD=VALUE" ...] [--arm VARIANT]
+        [--verbose]
 
 The physics planner can only be as good as phi's prediction of what Bullet will do. The plans
 are the baseline's: on each behaviour scene (Sec. VI-A) at its provenance angle, or with
@@ -17,7 +18,8 @@ standing. A kinematic failure in Bullet stops its replay early, so its boxes are
 Printed per configuration: the boxes whose class agrees (all, and those that moved more than
 1 cm in either engine: the ones that say something), the mean |displacement difference| of
 the moved boxes (capped at 1 m), the boxes phi threw (moved over 1 m where Bullet moved them
-under 30 cm: a box that phi launches off the board), and phi's rollout seconds.
+under 30 cm: a box that phi launches off the board), phi's rollout seconds, and the
+disagreements by class (Bullet's -> phi's).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from drake_clutter.config import load_config
 from drake_clutter.dynamics import Phi, initial_state, make_spec, scene_box_states
 from drake_clutter.evaluation import evaluate, off_the_board, tilt_angle
 from drake_clutter.generators import generate_scene
+from drake_clutter.robot_model import VARIANTS
 
 SCENES = ("fig5_large_small", "fig6_push_sideways", "fig7_cascade", "fig8_snaking")
 MOVED_CM = 1.0  # a box that moved less than this in both engines says nothing
@@ -49,12 +52,14 @@ def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list
             for f, t in zip(fallen, tilts, strict=True)]
 
 
-def phi_final(scene, trajectory, config, settle: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Box positions (n, 3, W, m) and tilts (n, rad) after phi rolls the plan out with every
-    box dynamic and holds the arm ``settle`` s; and the rollout's seconds."""
+def phi_final(scene, trajectory, config, settle: float, arm: str = "capsules"
+              ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Box positions (n, 3, W, m) and tilts (n, rad) after phi, its arm in geometry variant
+    ``arm``, rolls the plan out with every box dynamic and holds the arm ``settle`` s; and the
+    rollout's seconds."""
     names = [b.name for b in scene.boxes]
     knot_time = float(np.diff(trajectory.times[:2])[0])
-    spec = make_spec(scene, names, None, knot_time, config.dynamics, config.world, "capsules")
+    spec = make_spec(scene, names, None, knot_time, config.dynamics, config.world, arm)
     phi = Phi(spec)
     tic = time.perf_counter()
     x = phi.settle(initial_state(spec.layout, trajectory.q[0], scene_box_states(scene)))
@@ -77,12 +82,18 @@ class Tally:
     thrown: int = 0
     seconds: float = 0.0
     errors: list = field(default_factory=list)
+    confusion: dict = field(default_factory=dict)  # (Bullet class, phi class) -> boxes
 
     def line(self, label: str) -> str:
         error = float(np.mean(self.errors)) if self.errors else 0.0
         return (f"{label:40} classes {self.agree:3d}/{self.boxes:<3d} moved boxes "
                 f"{self.moved_agree:3d}/{self.moved:<3d} |d| {error:5.1f} cm thrown "
                 f"{self.thrown:2d} phi {self.seconds:6.1f} s")
+
+    def misses(self) -> str:
+        """The disagreements, as 'Bullet class -> phi class: boxes'."""
+        return ", ".join(f"{b} -> {p}: {n}" for (b, p), n in sorted(self.confusion.items())
+                         if b != p)
 
 
 @dataclass
@@ -124,10 +135,11 @@ def replays(scene_list, angles: int, config) -> list[Replay]:
     return out
 
 
-def compare(replay: Replay, config, settle: float, tally: Tally, verbose: bool) -> None:
+def compare(replay: Replay, config, settle: float, tally: Tally, verbose: bool,
+            arm: str = "capsules") -> None:
     """Rolls one plan out in phi under ``config`` and adds its agreement to ``tally``."""
     scene, max_tilt = replay.scene, config.evaluation.max_tilt
-    p_phi, tilt_phi, seconds = phi_final(scene, replay.trajectory, config, settle)
+    p_phi, tilt_phi, seconds = phi_final(scene, replay.trajectory, config, settle, arm)
     c_bullet = classes(scene, replay.p_bullet, replay.tilt_bullet, max_tilt)
     c_phi = classes(scene, p_phi, tilt_phi, max_tilt)
     moved_b = np.linalg.norm(replay.p_bullet - replay.start, axis=1) * 100
@@ -141,6 +153,8 @@ def compare(replay: Replay, config, settle: float, tally: Tally, verbose: bool) 
     tally.thrown += int(np.sum((moved_p > THROWN_CM) & (moved_b < SHORT_CM)))
     tally.errors.extend(np.minimum(np.abs(moved_b - moved_p), 100.0)[moving])
     tally.seconds += seconds
+    for b, p in zip(c_bullet, c_phi, strict=True):
+        tally.confusion[b, p] = tally.confusion.get((b, p), 0) + 1
     if verbose:
         print(f"\n{replay.label}: Bullet {replay.kind}; phi rollout {seconds:.1f} s")
         print(f"  {'box':16} {'Bullet':>8} {'cm':>6} {'deg':>4} | {'phi':>8} {'cm':>6} {'deg':>4}")
@@ -162,6 +176,8 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
     parser.add_argument("--variant", action="append", default=[],
                         metavar="FIELD=VALUE[,FIELD=VALUE]")
+    parser.add_argument("--arm", default="capsules", choices=VARIANTS,
+                        help="phi's arm geometry (the planner's full stage: capsules)")
     parser.add_argument("--verbose", action="store_true", help="every box of every plan")
     args = parser.parse_args(argv)
     if args.angles < 1 or args.generated < 0:
@@ -179,10 +195,11 @@ def main(argv=None) -> int:
     tallies = [Tally() for _ in variants]
     for replay in plans:
         for (_, cfg), tally in zip(variants, tallies, strict=True):
-            compare(replay, cfg, args.settle, tally, args.verbose and cfg is config)
+            compare(replay, cfg, args.settle, tally, args.verbose and cfg is config, args.arm)
     print()
     for (label, _), tally in zip(variants, tallies, strict=True):
         print(tally.line(label))
+        print(f"{'':40} misses: {tally.misses()}")
     return 0
 
 

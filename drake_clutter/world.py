@@ -51,7 +51,7 @@ from pydrake.systems.framework import Context
 from drake_clutter import robot_model
 from drake_clutter.config import WorldConfig
 from drake_clutter.scenes import BoxObject, Scene
-from drake_clutter.shelf_model import SHELF_LINK, shelf_sdf
+from drake_clutter.shelf_model import SHELF_FRICTION, SHELF_LINK, shelf_sdf
 
 ROBOT_JOINTS = robot_model.ARM_JOINTS + robot_model.FINGER_JOINTS
 
@@ -157,11 +157,23 @@ def _add_shelf(builder: RobotDiagramBuilder, scene: Scene) -> ModelInstanceIndex
     return shelf
 
 
+def box_friction(mu: float, config: WorldConfig) -> float:
+    """The Coulomb coefficient a box of scene friction ``mu`` gets in Drake: ``mu`` itself,
+    or with ``config.friction_as_bullet`` the one whose Drake pair with the shelf and the arm
+    (coefficient SHELF_FRICTION), 2ab / (a + b), is Bullet's pair ``mu`` * SHELF_FRICTION
+    (Bullet multiplies coefficients); where no such coefficient exists, ``mu``."""
+    target = mu * SHELF_FRICTION
+    if not config.friction_as_bullet or target >= 2.0 * SHELF_FRICTION:
+        return mu
+    return target * SHELF_FRICTION / (2.0 * SHELF_FRICTION - target)
+
+
 def _box_proximity(box: BoxObject, config: WorldConfig, compliant: bool) -> ProximityProperties:
     props = ProximityProperties()
+    mu = box_friction(box.friction, config)
     AddContactMaterial(dissipation=config.hunt_crossley_dissipation,
                        point_stiffness=config.point_stiffness,
-                       friction=CoulombFriction(box.friction, box.friction), properties=props)
+                       friction=CoulombFriction(mu, mu), properties=props)
     if compliant:
         AddCompliantHydroelasticProperties(config.resolution_hint, config.hydroelastic_modulus,
                                            props)

@@ -112,3 +112,29 @@ def test_phi_pd_servos_track_a_new_target():
     set_desired_robot_state(world, plant_context, goal)
     step(world, root, 100)
     np.testing.assert_allclose(world.robot_positions(plant_context), goal, atol=2e-3)
+
+
+@pytest.mark.parametrize("as_bullet", [False, True])
+def test_box_friction_pairs_like_the_judge(as_bullet):
+    """With ``friction_as_bullet`` a box's Drake coefficient b makes Drake's pair rule with the
+    shelf and the arm (1.0), 2 b S / (b + S), equal Bullet's product mu * S; without it the
+    box keeps the scene's mu. The dynamics world carries that coefficient."""
+    from pydrake.geometry import Role
+
+    from drake_clutter.shelf_model import SHELF_FRICTION
+    from drake_clutter.world import box_friction
+
+    config = WorldConfig(friction_as_bullet=as_bullet)
+    for mu in (0.4, 0.6, 0.8):
+        b = box_friction(mu, config)
+        pair = 2 * b * SHELF_FRICTION / (b + SHELF_FRICTION)
+        assert pair == pytest.approx(mu * SHELF_FRICTION if as_bullet else 2 * mu / (1 + mu))
+    scene = load_shipped_scene("fig5_large_small")
+    world = build_dynamics_world(scene, config=config)
+    inspector = world.scene_graph.model_inspector()
+    box = next(b for b in scene.boxes if b.name == "target")
+    body = world.plant.GetBodyByName(box.name, world.boxes)
+    (geometry,) = world.plant.GetCollisionGeometriesForBody(body)
+    friction = inspector.GetProperties(geometry, Role.kProximity).GetProperty(
+        "material", "coulomb_friction")
+    assert friction.static_friction() == pytest.approx(box_friction(box.friction, config))

@@ -43,7 +43,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from drake_clutter.config import ConfigError
+from drake_clutter.config import ConfigError, DynamicsConfig, WorldConfig
 from drake_clutter.derivatives_autodiff import AutoDiffPhi
 from drake_clutter.dynamics import ARM_DIM, ARM_NODE, BOX_TANGENT, NU, Phi, PhiSpec, StateLayout
 
@@ -263,6 +263,17 @@ class _KnotWork:
     # block (differentiated in this call) it reuses
 
 
+def check_derivative_method(config: DynamicsConfig, world: WorldConfig) -> None:
+    """Raises ConfigError unless ``config.derivative_method`` can differentiate phi under
+    ``world.contact_approximation``: AutoDiffXd ("autodiff", "hybrid") only under "sap"."""
+    if config.derivative_method != "fd" and world.contact_approximation != "sap":
+        raise ConfigError(
+            "<configuration>", "dynamics.derivative_method",
+            f"must be 'fd' with world.contact_approximation {world.contact_approximation!r} "
+            f"(Drake's AutoDiffXd derivatives under Hunt-Crossley contact did not match "
+            f"themselves or finite differences), got {config.derivative_method!r}")
+
+
 class PhiDynamics:
     """phi for iLQR (`ilqr.Dynamics`): ``step(t, x, u)``, ``rollout``, ``linearize``, and the
     contact forces of each step with their Jacobians (``step_forces``, ``linearize_forces``).
@@ -273,13 +284,7 @@ class PhiDynamics:
     """
 
     def __init__(self, spec: PhiSpec, pool: WorkerPool | None = None):
-        if spec.config.derivative_method != "fd" and spec.world.contact_approximation != "sap":
-            raise ConfigError(
-                "<configuration>", "dynamics.derivative_method",
-                f"must be 'fd' with world.contact_approximation "
-                f"{spec.world.contact_approximation!r} (Drake's AutoDiffXd derivatives under "
-                f"Hunt-Crossley contact did not match themselves or finite differences), got "
-                f"{spec.config.derivative_method!r}")
+        check_derivative_method(spec.config, spec.world)
         self.spec = spec
         self.config = spec.config
         self.layout = spec.layout

@@ -49,7 +49,7 @@ import numpy as np
 from drake_clutter import ilqr, robot_model
 from drake_clutter.baseline import plan_baseline
 from drake_clutter.config import Config, ConfigError
-from drake_clutter.derivatives import PhiDynamics, WorkerPool
+from drake_clutter.derivatives import PhiDynamics, WorkerPool, check_derivative_method
 from drake_clutter.dynamics import (
     ARM_DIM,
     StateLayout,
@@ -462,11 +462,7 @@ def check_config(config: Config) -> None:
         if not ok:
             raise ConfigError("<configuration>", f"physics.{name}",
                               f"must be {what}, got {getattr(cfg, name)!r}")
-    if config.dynamics.derivative_method != "fd" and config.world.contact_approximation != "sap":
-        raise ConfigError("<configuration>", "dynamics.derivative_method",
-                          f"must be 'fd' with world.contact_approximation "
-                          f"{config.world.contact_approximation!r} (see `PhiDynamics`), got "
-                          f"{config.dynamics.derivative_method!r}")
+    check_derivative_method(config.dynamics, config.world)
 
 
 def plan_physics(scene: Scene, config: Config | None = None,

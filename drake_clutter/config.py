@@ -227,6 +227,12 @@ class DynamicsConfig:
     # (its hydroelastic contact surfaces dominate), FD m + 1
     autodiff_min_groups: int = 20  # "hybrid": where AutoDiffXd starts to pay (14 + m/3 < m +
     # 1 from m ~ 20; ours, measured as above)
+    linearize_approximation: Literal["rollout", "sap"] = "rollout"  # the contact
+    # approximation phi's Jacobians are taken with; ours: "rollout" = world.contact_approximation
+    # (the plant that rolls out); "sap" = a SAP copy of phi (AutoDiffXd and clean finite
+    # differences) while rollouts and line searches use world.contact_approximation - for
+    # Hunt-Crossley phi ("similar"), whose own Jacobians are noise (README: planning with
+    # Hunt-Crossley phi)
     workers: int = 2  # parallel derivative workers (Sec. V: "in parallel"); ours: 2 cores
     # (0 = serial, in the calling process)
     # phi's simulation (all ours; measurements in the README's phi section).

@@ -102,9 +102,11 @@ def perturbed(layout: StateLayout, x, u, columns, step: float):
 def group_differences(phi: Phi, x, u, nominal, groups, step: float, scheme: str) -> np.ndarray:
     """Difference quotients (len(groups), ndx + 1 + n) of phi's output [x' (tangent), contact
     forces f] for each group of columns perturbed together: forward (phi(x + h e) (-)
-    phi(x)) / h about ``nominal`` = (x', f) or central (phi(x + h e) (-) phi(x - h e)) / 2h.
-    A failed evaluation gives a row of NaN."""
+    phi(x)) / h about ``nominal`` = (x', f) (None: phi's own step from (x, u)) or central
+    (phi(x + h e) (-) phi(x - h e)) / 2h. A failed evaluation gives a row of NaN."""
     layout = phi.layout
+    if scheme != "central" and nominal is None:
+        nominal = phi.step_forces(x, u)
     out = np.empty((len(groups), layout.ndx + phi.num_forces))
     for g, cols in enumerate(groups):
         x_plus, f_plus = phi.step_forces(*perturbed(layout, x, u, cols, step))
@@ -152,7 +154,7 @@ def group_autodiff(autodiff: AutoDiffPhi, x, u, groups) -> np.ndarray:
 
 _WORKER_PHIS: OrderedDict = OrderedDict()  # in each worker process: spec key -> [Phi,
 # AutoDiffPhi or None (built on first use)]
-_WORKER_CACHE_SIZE = 3
+_WORKER_CACHE_SIZE = 4
 
 
 def _worker_phi(key: str, spec: PhiSpec, autodiff: bool = False):
@@ -263,14 +265,34 @@ class _KnotWork:
     # block (differentiated in this call) it reuses
 
 
+def linearized_approximation(config: DynamicsConfig, world: WorldConfig) -> str:
+    """The contact approximation phi's Jacobians are taken with (see
+    ``DynamicsConfig.linearize_approximation``)."""
+    if config.linearize_approximation == "sap":
+        return "sap"
+    return world.contact_approximation
+
+
+def derivative_spec(spec: PhiSpec) -> PhiSpec:
+    """The phi whose Jacobians stand for ``spec``'s: ``spec`` itself, or its SAP copy when
+    ``linearize_approximation`` is "sap" and ``spec`` rolls out with another approximation."""
+    approximation = linearized_approximation(spec.config, spec.world)
+    if approximation == spec.world.contact_approximation:
+        return spec
+    return replace(spec, world=replace(spec.world, contact_approximation=approximation))
+
+
 def check_derivative_method(config: DynamicsConfig, world: WorldConfig) -> None:
-    """Raises ConfigError unless ``config.derivative_method`` can differentiate phi under
-    ``world.contact_approximation``: AutoDiffXd ("autodiff", "hybrid") only under "sap"."""
-    if config.derivative_method != "fd" and world.contact_approximation != "sap":
+    """Raises ConfigError unless ``config.derivative_method`` can differentiate phi under the
+    approximation it is linearised with (`linearized_approximation`): AutoDiffXd ("autodiff",
+    "hybrid") only under "sap"."""
+    approximation = linearized_approximation(config, world)
+    if config.derivative_method != "fd" and approximation != "sap":
         raise ConfigError(
             "<configuration>", "dynamics.derivative_method",
             f"must be 'fd' with world.contact_approximation {world.contact_approximation!r} "
-            f"(Drake's AutoDiffXd derivatives under Hunt-Crossley contact did not match "
+            f"unless dynamics.linearize_approximation is 'sap' (Drake's AutoDiffXd "
+            f"derivatives under Hunt-Crossley contact did not match "
             f"themselves or finite differences), got {config.derivative_method!r}")
 
 
@@ -280,7 +302,8 @@ class PhiDynamics:
 
     Owns an in-process `Phi` for steps and, with ``config.workers`` > 0, uses a `WorkerPool`
     (its own, or a shared one passed in) for derivatives. Call `close` (or use ``with``) to stop
-    an owned pool.
+    an owned pool. Derivatives are taken of `derivative_spec` (``spec`` or its SAP copy) at the
+    states ``spec``'s rollouts reach; the interaction graph comes from those rollouts.
     """
 
     def __init__(self, spec: PhiSpec, pool: WorkerPool | None = None):
@@ -289,6 +312,8 @@ class PhiDynamics:
         self.config = spec.config
         self.layout = spec.layout
         self.phi = Phi(spec)
+        self.dspec = derivative_spec(spec)
+        self._dphi = self.phi if self.dspec is spec else None  # built on first serial use
         self._own_pool = pool is None and self.config.workers > 0
         self.pool = WorkerPool(self.config.workers) if self._own_pool else pool
         self._steps: OrderedDict = OrderedDict()
@@ -492,6 +517,7 @@ class PhiDynamics:
         """`_evaluate`'s first pass: AutoDiffXd at the knots where ``autodiff(w)``, finite
         differences elsewhere; split into pool tasks (one per AutoDiffXd knot)."""
         h, scheme = self.config.fd_step, self.config.fd_scheme
+        own = self.dspec is self.spec  # else the derivative phi steps its own nominal
         if self.pool is None:
             return [self._serial(w, h, scheme, autodiff(w)) for w in work]
         fd_groups = sum(len(w.groups) for w in work if not autodiff(w))
@@ -499,12 +525,13 @@ class PhiDynamics:
         tasks, owners = [], []
         for i, w in enumerate(work):
             if autodiff(w):
-                tasks.append(("autodiff", self.spec.key, self.spec, w.x, w.u, w.groups))
+                tasks.append(("autodiff", self.dspec.key, self.dspec, w.x, w.u, w.groups))
                 owners.append(i)
                 continue
             for start in range(0, len(w.groups), chunk):
-                tasks.append(("groups", self.spec.key, self.spec, w.x, w.u, w.nominal,
-                              w.groups[start:start + chunk], h, scheme))
+                tasks.append(("groups", self.dspec.key, self.dspec, w.x, w.u,
+                              w.nominal if own else None, w.groups[start:start + chunk], h,
+                              scheme))
                 owners.append(i)
         parts: list[list[np.ndarray]] = [[] for _ in work]
         for i, result in zip(owners, self.pool.map(tasks), strict=True):
@@ -513,10 +540,14 @@ class PhiDynamics:
         return [np.vstack(p) if p else np.zeros((0, width)) for p in parts]
 
     def _serial(self, w: _KnotWork, h: float, scheme: str, autodiff: bool) -> np.ndarray:
+        if self._dphi is None:
+            self._dphi = Phi(self.dspec)
+        own = self._dphi is self.phi
         if not autodiff:
-            return group_differences(self.phi, w.x, w.u, w.nominal, w.groups, h, scheme)
+            return group_differences(self._dphi, w.x, w.u, w.nominal if own else None,
+                                     w.groups, h, scheme)
         if self._autodiff is None:
-            self._autodiff = AutoDiffPhi(self.phi)
+            self._autodiff = AutoDiffPhi(self._dphi)
         return group_autodiff(self._autodiff, w.x, w.u, w.groups)
 
     def _assemble(self, w: _KnotWork, D: np.ndarray, J: np.ndarray) -> None:

@@ -13,13 +13,19 @@ box dynamic (no pruning), then ``--settle`` seconds with the arm held, once for 
 configuration (``--set``) and once per ``--variant`` (overrides on top of it): the variants are
 judged on the same plans and the same Bullet replays. Each box is classed as in Sec. III on
 both final states: fallen (off the board), tipped (tilt over ``evaluation.max_tilt``) or
-standing. A kinematic failure in Bullet stops its replay early, so its boxes are left out.
+standing. A kinematic failure in Bullet stops its replay early, so its boxes are left out of
+the classes; those plans are kept for the jams (below).
 
 Printed per configuration: the boxes whose class agrees (all, and those that moved more than
 1 cm in either engine: the ones that say something), the mean |displacement difference| of
 the moved boxes (capped at 1 m), the boxes phi threw (moved over 1 m where Bullet moved them
 under 30 cm: a box that phi launches off the board), phi's rollout seconds, and the
-disagreements by class (Bullet's -> phi's).
+disagreements by class (Bullet's -> phi's). Jams: does phi see the arm push hard where Bullet
+fails kinematically (Sec. III: the arm cannot follow, or presses the shelf through a box)?
+phi's peak knot-mean contact force on the arm (`dynamics.Phi.contact_forces`' entry 0) over
+the plan (up to Bullet's failure time plus a knot where it failed), over JAM_N or not, against
+Bullet's kinematic failure or not; and the median peaks of both groups. (A finger on the board
+is c_static's matter: phi's arm passes through the shelf.)
 """
 
 from __future__ import annotations
@@ -43,6 +49,7 @@ from drake_clutter.robot_model import VARIANTS
 SCENES = ("fig5_large_small", "fig6_push_sideways", "fig7_cascade", "fig8_snaking")
 MOVED_CM = 1.0  # a box that moved less than this in both engines says nothing
 THROWN_CM, SHORT_CM = 100.0, 30.0  # phi over THROWN_CM where Bullet under SHORT_CM: thrown
+JAM_N = 50.0  # N: phi's peak arm force that "predicts" a kinematic failure (Sec. III's 50 N)
 
 
 def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list[str]:
@@ -52,23 +59,33 @@ def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list
             for f, t in zip(fallen, tilts, strict=True)]
 
 
-def phi_final(scene, trajectory, config, settle: float, arm: str = "capsules"
-              ) -> tuple[np.ndarray, np.ndarray, float]:
+def phi_final(scene, trajectory, config, settle: float, arm: str = "capsules",
+              until: float | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Box positions (n, 3, W, m) and tilts (n, rad) after phi, its arm in geometry variant
-    ``arm``, rolls the plan out with every box dynamic and holds the arm ``settle`` s; and the
-    rollout's seconds."""
+    ``arm``, rolls the plan out with every box dynamic and holds the arm ``settle`` s; the
+    rollout's seconds; and the peak knot-mean contact force on the arm (N) over the plan, or
+    over its knots up to ``until`` s plus one knot."""
     names = [b.name for b in scene.boxes]
     knot_time = float(np.diff(trajectory.times[:2])[0])
     spec = make_spec(scene, names, None, knot_time, config.dynamics, config.world, arm)
     phi = Phi(spec)
     tic = time.perf_counter()
     x = phi.settle(initial_state(spec.layout, trajectory.q[0], scene_box_states(scene)))
-    x = phi.rollout(x, trajectory.q[1:])[-1]
+    peak = 0.0
+    for t, u in zip(trajectory.times[1:], trajectory.q[1:], strict=True):
+        if until is not None and t > until + knot_time:
+            break
+        x, f = phi.step_forces(x, u)
+        peak = max(peak, float(np.nan_to_num(f[0])))
     x = phi.settle(x, settle)
     seconds = time.perf_counter() - tic
     boxes = spec.layout.boxes(x)
     R = Rotation.from_quat(np.nan_to_num(boxes[:, [1, 2, 3, 0]], nan=1.0)).as_matrix()
-    return boxes[:, 4:7], tilt_angle(R), seconds
+    return boxes[:, 4:7], tilt_angle(R), seconds, peak
+
+
+def _median_n(values: np.ndarray) -> str:
+    return f"{np.median(values):.0f} N" if len(values) else "-"
 
 
 @dataclass
@@ -83,12 +100,21 @@ class Tally:
     seconds: float = 0.0
     errors: list = field(default_factory=list)
     confusion: dict = field(default_factory=dict)  # (Bullet class, phi class) -> boxes
+    peaks: dict = field(default_factory=lambda: {True: [], False: []})  # Bullet kinematic
+    # failure? -> phi's peak arm forces (N)
 
     def line(self, label: str) -> str:
         error = float(np.mean(self.errors)) if self.errors else 0.0
         return (f"{label:40} classes {self.agree:3d}/{self.boxes:<3d} moved boxes "
                 f"{self.moved_agree:3d}/{self.moved:<3d} |d| {error:5.1f} cm thrown "
                 f"{self.thrown:2d} phi {self.seconds:6.1f} s")
+
+    def jams(self) -> str:
+        """phi's peak arm force against Bullet's kinematic failures."""
+        kf, ok = (np.array(self.peaks[k]) for k in (True, False))
+        return (f"jams: phi's arm over {JAM_N:.0f} N in {int(np.sum(kf > JAM_N))}/{len(kf)} "
+                f"Bullet kinematic failures and {int(np.sum(ok > JAM_N))}/{len(ok)} other "
+                f"plans; median peak {_median_n(kf)} vs {_median_n(ok)}")
 
     def misses(self) -> str:
         """The disagreements, as 'Bullet class -> phi class: boxes'."""
@@ -107,11 +133,17 @@ class Replay:
     p_bullet: np.ndarray
     tilt_bullet: np.ndarray
     kind: str
+    fail_time: float | None = None  # s: Bullet's kinematic failure, None if none
+
+    @property
+    def failed(self) -> bool:
+        """Whether Bullet found a kinematic failure (its replay stopped there)."""
+        return self.fail_time is not None
 
 
 def replays(scene_list, angles: int, config) -> list[Replay]:
     """The baseline's plans on each scene (its provenance angle, or ``angles`` angles), each
-    replayed in Bullet; plans that end in a kinematic failure are left out (said so)."""
+    replayed in Bullet (a kinematic failure is marked by its time: said so)."""
     out = []
     for name, scene in scene_list:
         if angles == 1 and scene.provenance and "alpha" in scene.provenance.parameters:
@@ -124,14 +156,16 @@ def replays(scene_list, angles: int, config) -> list[Replay]:
                 print(f"{label}: no baseline plan ({candidate.reason})")
                 continue
             o = evaluate(scene, candidate.trajectory, config.evaluation)
+            fail_time = None
             if o.kind == "kinematic_failure":
-                print(f"{label}: kinematic failure in Bullet (replay stopped early), left out")
-                continue
+                print(f"{label}: kinematic failure in Bullet at {o.simulated_time:.2f} s "
+                      f"({o.reason}): jams only")
+                fail_time = o.simulated_time
             start = np.array([[b.pose[0], b.pose[1], scene.box_center_z(b)]
                               for b in scene.boxes])
             out.append(Replay(label, scene, candidate.trajectory, start,
                               np.array([b.final_position for b in o.boxes]),
-                              np.array([b.tilt for b in o.boxes]), o.kind))
+                              np.array([b.tilt for b in o.boxes]), o.kind, fail_time))
     return out
 
 
@@ -139,7 +173,15 @@ def compare(replay: Replay, config, settle: float, tally: Tally, verbose: bool,
             arm: str = "capsules") -> None:
     """Rolls one plan out in phi under ``config`` and adds its agreement to ``tally``."""
     scene, max_tilt = replay.scene, config.evaluation.max_tilt
-    p_phi, tilt_phi, seconds = phi_final(scene, replay.trajectory, config, settle, arm)
+    p_phi, tilt_phi, seconds, peak = phi_final(scene, replay.trajectory, config, settle, arm,
+                                               replay.fail_time)
+    tally.seconds += seconds
+    tally.peaks[replay.failed].append(peak)
+    if replay.failed:
+        if verbose:
+            print(f"\n{replay.label}: Bullet {replay.kind} at {replay.fail_time:.2f} s; "
+                  f"phi's peak arm force {peak:.0f} N")
+        return
     c_bullet = classes(scene, replay.p_bullet, replay.tilt_bullet, max_tilt)
     c_phi = classes(scene, p_phi, tilt_phi, max_tilt)
     moved_b = np.linalg.norm(replay.p_bullet - replay.start, axis=1) * 100
@@ -152,11 +194,11 @@ def compare(replay: Replay, config, settle: float, tally: Tally, verbose: bool,
     tally.moved += int(moving.sum())
     tally.thrown += int(np.sum((moved_p > THROWN_CM) & (moved_b < SHORT_CM)))
     tally.errors.extend(np.minimum(np.abs(moved_b - moved_p), 100.0)[moving])
-    tally.seconds += seconds
     for b, p in zip(c_bullet, c_phi, strict=True):
         tally.confusion[b, p] = tally.confusion.get((b, p), 0) + 1
     if verbose:
-        print(f"\n{replay.label}: Bullet {replay.kind}; phi rollout {seconds:.1f} s")
+        print(f"\n{replay.label}: Bullet {replay.kind}; phi rollout {seconds:.1f} s, peak "
+              f"arm force {peak:.0f} N")
         print(f"  {'box':16} {'Bullet':>8} {'cm':>6} {'deg':>4} | {'phi':>8} {'cm':>6} {'deg':>4}")
         for i, box in enumerate(scene.boxes):
             print(f"  {box.name:16} {c_bullet[i]:>8} {moved_b[i]:6.1f} "
@@ -191,7 +233,8 @@ def main(argv=None) -> int:
     print(f"phi: {config.dynamics.substeps} sub-steps a {config.baseline.knot_time} s knot, "
           f"modulus {config.world.hydroelastic_modulus:g} Pa")
     plans = replays(scene_list, args.angles, config)
-    print(f"{len(plans)} plans replayed in Bullet")
+    failed = sum(r.failed for r in plans)
+    print(f"{len(plans)} plans replayed in Bullet ({failed} kinematic failures)")
     tallies = [Tally() for _ in variants]
     for replay in plans:
         for (_, cfg), tally in zip(variants, tallies, strict=True):
@@ -200,6 +243,7 @@ def main(argv=None) -> int:
     for (label, _), tally in zip(variants, tallies, strict=True):
         print(tally.line(label))
         print(f"{'':40} misses: {tally.misses()}")
+        print(f"{'':40} {tally.jams()}")
     return 0
 
 

@@ -164,7 +164,8 @@ class HoldTail:
                 out[name] = out.get(name, 0.0) + term.value
         if self.objective.forces is not None:
             holds = np.tile(hold, (self.knots, 1))
-            out["force"] = out.get("force", 0.0) + self.objective.phi_force_value(ys[:-1], holds)
+            for name, value in self.objective.phi_force_terms(ys[:-1], holds).items():
+                out[name] = out.get(name, 0.0) + value
         return out
 
     def quadratize(self, zs: np.ndarray, us: np.ndarray) -> ilqr.Expansion:
@@ -184,12 +185,12 @@ class HoldTail:
         forces = self.objective.forces is not None
         if forces:
             f, Fx, Fu = map(np.nan_to_num, self.dynamics.linearize_forces(ys, holds))
-            w = self.objective.config.w_force
+            _, g, d = self.objective.force_cost(f)
         for k in range(self.knots):
             if forces:
                 G = Fx[k] @ J + Fu[k] @ hold_rows
-                exp.vx[:ndx] += w * G.T @ f[k]
-                exp.vxx[:ndx, :ndx] += w * G.T @ G
+                exp.vx[:ndx] += G.T @ g[k]
+                exp.vxx[:ndx, :ndx] += G.T @ (d[k][:, None] * G)
             J = A[k] @ J
             P = np.vstack([J, hold_rows])  # d z_k / d x_T, z_k = [y_k, hold]
             for term in self._knot_terms(ys[k + 1], hold).values():
@@ -449,6 +450,8 @@ def check_config(config: Config) -> None:
               ("phi_static_substeps", cfg.phi_static_substeps >= 1, "at least 1"),
               ("w_static_deep", cfg.w_static_deep == 0 or cfg.w_static > 0,
                "0 while physics.w_static is 0 (it scales the steep part)"),
+              ("w_force_excess", cfg.w_force_excess >= 0, "non-negative"),
+              ("force_limit", cfg.force_limit >= 0, "non-negative"),
               ("w_speed", cfg.w_speed >= 0, "non-negative"),
               ("speed_fraction", cfg.speed_fraction > 0, "positive"),
               ("tolerance", cfg.tolerance >= 0, "non-negative"),

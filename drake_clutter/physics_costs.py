@@ -319,14 +319,30 @@ class PhysicsObjective:
                 out[name] = out.get(name, 0.0) + term.value
         out["acc"] = sum(self.acc_term(zs[t], us[t]).value for t in range(T))
         if self.forces is not None:
-            out["force"] = self.phi_force_value(zs[:T, :self.nx], us)
+            out.update(self.phi_force_terms(zs[:T, :self.nx], us))
         return out
 
-    def phi_force_value(self, xs: np.ndarray, us: np.ndarray) -> float:
-        """Weighted c_force from phi's contact forces: w/2 sum_t ||f(x_t, u_t)||^2 (N^2) over
-        the intervals (x_t, u_t)."""
-        f = [self.forces.step_forces(x, u) for x, u in zip(xs, us, strict=True)]
-        return 0.5 * self.config.w_force * float(sum(fi @ fi for fi in f))
+    def phi_force_terms(self, xs: np.ndarray, us: np.ndarray) -> dict[str, float]:
+        """Weighted c_force (and c_force_excess, see `force_cost`) from phi's contact forces
+        of the intervals (x_t, u_t)."""
+        f = np.array([self.forces.step_forces(x, u) for x, u in zip(xs, us, strict=True)])
+        return self.force_cost(f)[0]
+
+    def force_cost(self, f: np.ndarray) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+        """Weighted c_force = w_force/2 ||f||^2 and (ours, with w_force_excess > 0)
+        c_force_excess = w_force_excess/2 ||max(0, f - force_limit)||^2 of contact-force
+        vectors f (..., nf) in N: their values, the gradient d cost / d f and the diagonal of
+        the Gauss-Newton Hessian (both shaped as f)."""
+        cfg = self.config
+        excess = np.maximum(0.0, f - cfg.force_limit)
+        values = {"force": 0.5 * cfg.w_force * float(np.sum(f * f))}
+        gradient = cfg.w_force * f
+        curvature = np.full(f.shape, cfg.w_force)
+        if cfg.w_force_excess > 0:
+            values["force_excess"] = 0.5 * cfg.w_force_excess * float(np.sum(excess ** 2))
+            gradient = gradient + cfg.w_force_excess * excess
+            curvature = curvature + cfg.w_force_excess * (excess > 0)
+        return values, gradient, curvature
 
     def quadratize(self, zs: np.ndarray, us: np.ndarray) -> Expansion:
         """Expansion in tangent coordinates (dz, du)."""
@@ -353,15 +369,16 @@ class PhysicsObjective:
         return Expansion(lx, lu, lxx, luu, lux, vx, vxx)
 
     def _add_phi_forces(self, zs, us, lx, lu, lxx, luu, lux) -> None:
-        """w 1/2 ||f_t||^2 per interval, Gauss-Newton in (dx_t, du_t) (q_prev: no effect)."""
-        w, ndx = self.config.w_force, self.ndx
+        """`force_cost` per interval, Gauss-Newton in (dx_t, du_t) (q_prev: no effect)."""
+        ndx = self.ndx
         # A failed derivative evaluation (NaN) has no known effect, as in `ilqr`.
         f, Fx, Fu = map(np.nan_to_num, self.forces.linearize_forces(zs[:len(us), :self.nx], us))
-        lx[:, :ndx] += w * np.einsum("tfi,tf->ti", Fx, f)
-        lu += w * np.einsum("tfi,tf->ti", Fu, f)
-        lxx[:, :ndx, :ndx] += w * np.einsum("tfi,tfj->tij", Fx, Fx)
-        luu += w * np.einsum("tfi,tfj->tij", Fu, Fu)
-        lux[:, :, :ndx] += w * np.einsum("tfi,tfj->tij", Fu, Fx)
+        _, g, d = self.force_cost(f)
+        lx[:, :ndx] += np.einsum("tfi,tf->ti", Fx, g)
+        lu += np.einsum("tfi,tf->ti", Fu, g)
+        lxx[:, :ndx, :ndx] += np.einsum("tfi,tf,tfj->tij", Fx, d, Fx)
+        luu += np.einsum("tfi,tf,tfj->tij", Fu, d, Fu)
+        lux[:, :, :ndx] += np.einsum("tfi,tf,tfj->tij", Fu, d, Fx)
 
 
 def _embed(term: Term, columns: list[int], n: int, first: int | None = None) -> Term:

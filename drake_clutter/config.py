@@ -358,11 +358,12 @@ class PhysicsConfig:
     # last knot; ours: they replace the baseline's terminal pose constraint (Sec. V-A keeps the
     # pre-grasp), and at 1x the squared distance let the tool frame drift 5 cm (measured)
     post_iterations: int = 40  # iLQR iterations of the Sec. V-B post-processing; ours (a
-    # kinematic iLQR: seconds). Measured (2026-11-23, 10 physics plans of the behaviour scenes
-    # at alpha -0.21 / +0.21): at 10 three plans ended with c_static 16-58 in the evaluation
-    # geometry; 30 more iterations turned fig8 +0.21 from a kinematic failure (the arm in the
-    # shelf) into a failure to grasp with nothing disturbed and changed no other outcome;
-    # fig8 -0.21 converges at c_static 7.3 (c_match holds it)
+    # kinematic iLQR: seconds). Measured (2026-11-23, 16 stored physics plans of the
+    # behaviour scenes at alpha -0.21 / +0.21, README): at 10, 4 plans ended with c_static
+    # 16-58 in the evaluation geometry; 30 more iterations turned fig8 +0.21 from a kinematic
+    # failure into a failure to grasp with nothing disturbed, left the other failures failures,
+    # and changed one outcome by a box (fig7 -0.21, 3 further iterations on a converged path:
+    # Bullet's cascade is that sensitive); fig8 -0.21 converges at c_static 7.3 (c_match)
     post_variant: str = "evaluation"  # arm geometry of the post-processing's c_static; Sec.
     # V-B: it corrects collisions that appear when switching to the evaluation model
     post_substeps: int = 6  # configurations per knot interval in the post-processing's

@@ -235,67 +235,63 @@ class _SmoothForces:
         return f, Fx, d[:, :, None] * self.Q
 
 
-def test_phi_force_term_gradient_matches_differences(physics_problem, geometry):
-    """With phi's forces, c_force is w/2 sum_t ||f(x_t, u_t)||^2 over the intervals, and its
-    expansion's gradient in (dz_t, du_t) is the numerical one."""
+def _force_problem(physics_problem, geometry, config: PhysicsConfig):
+    """An objective with `_SmoothForces` and a two-interval path (zs, us) for it."""
     _, layout, z = physics_problem
-    objective = PhysicsObjective(geometry, layout, PhysicsConfig(w_force=2.0), z[:layout.nx],
-                                 "target", knot_time=0.2, d_safe=0.02,
-                                 forces=_SmoothForces(layout.ndx))
+    objective = PhysicsObjective(geometry, layout, config, z[:layout.nx], "target",
+                                 knot_time=0.2, d_safe=0.02, forces=_SmoothForces(layout.ndx))
     zs = np.stack([z, z, z])
     us = np.stack([z[:8] + 0.03, z[:8] - 0.02])
-    zs[1, :8] = us[0]
-    zs[2, :8] = us[1]
-    f = [objective.forces.step_forces(zs[t, :layout.nx], us[t]) for t in range(2)]
-    assert objective.terms(zs, us)["force"] == pytest.approx(sum(fi @ fi for fi in f))
+    zs[1:, :8] = us
+    return objective, layout, zs, us
+
+
+def _check_force_expansion(objective, layout, zs, us, cost_of_f):
+    """The force terms' part of the expansion (with minus without forces) has the numerical
+    gradient of sum_t cost_of_f(f(x_t, u_t)); returns that part's luu per interval."""
     exp = objective.quadratize(zs, us)
     objective.forces.P[:], objective.forces.Q[:] = 0.0, 0.0  # every other term (f = 0)
     base = objective.quadratize(zs, us)
     objective.forces = _SmoothForces(layout.ndx)
-    for t in range(2):
+    for t in range(len(us)):
         def value(w, t=t):
             x = layout.retract(zs[t, :layout.nx], w[:layout.ndx])
-            return float(np.sum(objective.forces.step_forces(x, us[t] + w[layout.ndx:]) ** 2))
+            return cost_of_f(objective.forces.step_forces(x, us[t] + w[layout.ndx:]))
 
         numeric = _numeric_gradient(value, np.zeros(layout.ndx + 8))
         np.testing.assert_allclose(exp.lx[t, :layout.ndx] - base.lx[t, :layout.ndx],
                                    numeric[:layout.ndx], atol=1e-6)
         np.testing.assert_allclose(exp.lu[t] - base.lu[t], numeric[layout.ndx:], atol=1e-6)
+    return exp.luu - base.luu, base
+
+
+def test_phi_force_term_gradient_matches_differences(physics_problem, geometry):
+    """With phi's forces, c_force is w/2 sum_t ||f(x_t, u_t)||^2 over the intervals, and its
+    expansion's gradient in (dz_t, du_t) is the numerical one."""
+    objective, layout, zs, us = _force_problem(physics_problem, geometry,
+                                               PhysicsConfig(w_force=2.0))
+    f = [objective.forces.step_forces(zs[t, :layout.nx], us[t]) for t in range(2)]
+    assert objective.terms(zs, us)["force"] == pytest.approx(sum(fi @ fi for fi in f))
+    _check_force_expansion(objective, layout, zs, us, lambda f: float(np.sum(f ** 2)))
 
 
 def test_force_excess_term_gradient_matches_differences(physics_problem, geometry):
     """c_force_excess = w/2 sum_t ||max(0, f_t - force_limit)||^2 (ours): its value, and its
     expansion's gradient in (dz_t, du_t) equals the numerical one; its Gauss-Newton Hessian
     is positive semi-definite and zero where no force exceeds the limit."""
-    _, layout, z = physics_problem
     config = PhysicsConfig(w_force=0.0, w_force_excess=5.0, force_limit=0.3)
-    objective = PhysicsObjective(geometry, layout, config, z[:layout.nx], "target",
-                                 knot_time=0.2, d_safe=0.02, forces=_SmoothForces(layout.ndx))
-    zs = np.stack([z, z, z])
-    us = np.stack([z[:8] + 0.03, z[:8] - 0.02])
-    zs[1:, :8] = us
+    objective, layout, zs, us = _force_problem(physics_problem, geometry, config)
+    z = zs[0]
     f = np.array([objective.forces.step_forces(zs[t, :layout.nx], us[t]) for t in range(2)])
     assert np.any(f > 0.3) and np.any(f < 0.3)  # some entries over the limit, some under
     excess = np.maximum(0.0, f - 0.3)
     terms = objective.terms(zs, us)
     assert terms["force_excess"] == pytest.approx(2.5 * np.sum(excess ** 2))
     assert terms["force"] == 0.0
-    exp = objective.quadratize(zs, us)
-    objective.forces.P[:], objective.forces.Q[:] = 0.0, 0.0  # every other term (f = 0)
-    base = objective.quadratize(zs, us)
-    objective.forces = _SmoothForces(layout.ndx)
-    for t in range(2):
-        def value(w, t=t):
-            x = layout.retract(zs[t, :layout.nx], w[:layout.ndx])
-            f = objective.forces.step_forces(x, us[t] + w[layout.ndx:])
-            return float(2.5 * np.sum(np.maximum(0.0, f - 0.3) ** 2))
-
-        numeric = _numeric_gradient(value, np.zeros(layout.ndx + 8))
-        np.testing.assert_allclose(exp.lx[t, :layout.ndx] - base.lx[t, :layout.ndx],
-                                   numeric[:layout.ndx], atol=1e-6)
-        np.testing.assert_allclose(exp.lu[t] - base.lu[t], numeric[layout.ndx:], atol=1e-6)
-        H = exp.luu[t] - base.luu[t]
-        assert np.linalg.eigvalsh(0.5 * (H + H.T)).min() > -1e-9
+    H, base = _check_force_expansion(
+        objective, layout, zs, us, lambda f: float(2.5 * np.sum(np.maximum(0.0, f - 0.3) ** 2)))
+    for h in H:
+        assert np.linalg.eigvalsh(0.5 * (h + h.T)).min() > -1e-9
     under = PhysicsConfig(w_force=0.0, w_force_excess=5.0, force_limit=1.0)  # tanh < 1
     quiet = PhysicsObjective(geometry, layout, under, z[:layout.nx], "target", knot_time=0.2,
                              d_safe=0.02, forces=_SmoothForces(layout.ndx))

@@ -535,7 +535,8 @@ def _grade(outcome) -> tuple[int, int]:
     "plan is the same on fig5 and fig6 (failure to grasp), one disturbed box better on fig7 "
     "(1 tipped + 3 fell vs 3 + 2) and a kinematic failure on fig8 (boxes pushed with 319 N at "
     "4.13 s; README, measured 2026-11-23 at 10 sub-steps with the hold tail and the "
-    "post-processing between knots). strict: an unexpected pass fails the run, so this mark "
+    "post-processing between knots, 10 post-processing iterations - not re-planned at 40). "
+    "strict: an unexpected pass fails the run, so this mark "
     "must go when the behaviours are reached."))
 def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():
     """Sec. VI-A: from the same angle (the scene's provenance alpha), the physics plan does at

@@ -114,10 +114,19 @@ def test_plan_scene_baseline_writes_the_replay_html(tmp_path):
     assert not list(tmp_path.glob("*.png"))  # no iLQR, no cost curves
 
 
+def _terminal_sigint() -> None:
+    """In the child before exec: SIGINT unblocked and at its default, as from a terminal.
+    Both are inherited; in CI, after the whole suite, the app ignored the SIGINT below and
+    never exited (twice, 2026-11-23; alone it exits at once), so something earlier in the
+    pytest process leaves SIGINT blocked or ignored at the OS level."""
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_plan_scene_serves_and_prints_the_meshcat_url():
     process = subprocess.Popen([sys.executable, "apps/plan_scene.py", "--planner", "baseline"],
                                cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                               text=True)
+                               text=True, preexec_fn=_terminal_sigint)
     try:
         deadline = time.monotonic() + 300
         url = ""

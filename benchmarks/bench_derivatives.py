@@ -31,7 +31,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from reach_paths import straight_reach  # noqa: E402
 
 from drake_clutter.config import load_config  # noqa: E402
-from drake_clutter.derivatives import PhiDynamics, WorkerPool, dense_jacobians  # noqa: E402
+from drake_clutter.derivative_groups import dense_jacobians  # noqa: E402
+from drake_clutter.derivative_workers import WorkerPool  # noqa: E402
+from drake_clutter.derivatives import PhiDynamics  # noqa: E402
 from drake_clutter.derivatives_autodiff import AutoDiffPhi  # noqa: E402
 from drake_clutter.dynamics import (  # noqa: E402
     ARM_NODE,

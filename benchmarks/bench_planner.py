@@ -26,7 +26,7 @@ import numpy as np
 
 from drake_clutter.baseline import plan_baseline
 from drake_clutter.config import load_config
-from drake_clutter.derivatives import WorkerPool
+from drake_clutter.derivative_workers import WorkerPool
 from drake_clutter.dynamics import Phi, initial_state, scene_box_states
 from drake_clutter.generators import generate_scene, scene_set
 from drake_clutter.physics import optimise_candidate

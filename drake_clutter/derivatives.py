@@ -15,9 +15,10 @@ Brute force perturbs every column of [x, u] (ndx + nu + 1 phi evaluations per kn
 3. Colouring. The columns still needed are grouped so that each group perturbs at most one
    column per component (Curtis-Powell-Reid: no row sees two perturbed columns); one phi
    evaluation per group, so a knot costs as many evaluations as its largest component has
-   columns, not ndx + nu.
+   columns, not ndx + nu (`derivative_groups`).
 4. Parallel workers. Groups are evaluated in ``workers`` spawned processes that each build their
-   plant and context once per phi (tasks carry only the spec and numpy arrays).
+   plant and context once per phi (`derivative_workers`; tasks carry only the spec and numpy
+   arrays).
 5. AutoDiffXd. With ``derivative_method`` "autodiff" (or "hybrid", at knots with at least
    ``autodiff_min_groups`` groups) a knot's groups are not finite differences but the
    directions seeded into one AutoDiffXd step (`derivatives_autodiff.AutoDiffPhi.directional`):
@@ -34,201 +35,25 @@ differences states plainly, `PhiDynamics.linearize_tangent` returns them as they
 from __future__ import annotations
 
 import math
-import multiprocessing
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from drake_clutter.config import ConfigError, DynamicsConfig, WorldConfig
+from drake_clutter.derivative_groups import (
+    colour_groups,
+    components,
+    group_autodiff,
+    group_differences,
+    node_columns,
+    node_output_rows,
+    node_rows,
+)
+from drake_clutter.derivative_workers import WorkerPool
 from drake_clutter.derivatives_autodiff import AutoDiffPhi
-from drake_clutter.dynamics import ARM_DIM, ARM_NODE, BOX_TANGENT, NU, Phi, PhiSpec, StateLayout
-
-# ----------------------------------------------------------------------------- columns
-
-
-def node_columns(layout: StateLayout, node: int) -> list[int]:
-    """Columns of [dx, du] (ndx + nu) owned by an interaction node."""
-    if node == ARM_NODE:
-        return list(range(ARM_DIM)) + list(range(layout.ndx, layout.ndx + NU))
-    start = ARM_DIM + BOX_TANGENT * (node - 1)
-    return list(range(start, start + BOX_TANGENT))
-
-
-def node_rows(layout: StateLayout, node: int) -> np.ndarray:
-    """Tangent rows of an interaction node."""
-    if node == ARM_NODE:
-        return np.arange(ARM_DIM)
-    return np.arange(ARM_DIM + BOX_TANGENT * (node - 1), ARM_DIM + BOX_TANGENT * node)
-
-
-def node_output_rows(layout: StateLayout, node: int) -> np.ndarray:
-    """Rows of an interaction node in phi's output [dx' (ndx), f (1 + n)]: its tangent rows
-    and its contact-force entry (`dynamics.Phi.contact_forces`)."""
-    return np.append(node_rows(layout, node), layout.ndx + node)
-
-
-def components(num_nodes: int, edges) -> list[list[int]]:
-    """Connected components (sorted node lists) of the interaction graph over the arm and
-    the kept boxes (edges to frozen boxes, negative nodes, are static contacts: ignored)."""
-    edges = [(a, b) for a, b in edges if a >= 0 and b >= 0]
-    rows = [a for a, _ in edges]
-    cols = [b for _, b in edges]
-    graph = coo_matrix((np.ones(len(edges)), (rows, cols)), shape=(num_nodes, num_nodes))
-    count, labels = connected_components(graph, directed=False)
-    return [sorted(np.flatnonzero(labels == c).tolist()) for c in range(count)]
-
-
-def colour_groups(column_lists: list[list[int]]) -> list[list[int]]:
-    """Groups of columns to perturb together: group g takes the g-th column of every list
-    (the lists belong to different components, so no row sees two of a group's columns)."""
-    depth = max((len(c) for c in column_lists), default=0)
-    return [[cols[g] for cols in column_lists if g < len(cols)] for g in range(depth)]
-
-
-# ----------------------------------------------------------------------------- evaluation
-
-
-def perturbed(layout: StateLayout, x, u, columns, step: float):
-    """(x (+) step e_cols, u + step e_cols) for tangent/control column indices."""
-    dx = np.zeros(layout.ndx + NU)
-    dx[list(columns)] = step
-    return layout.retract(x, dx[:layout.ndx]), np.asarray(u, dtype=float) + dx[layout.ndx:]
-
-
-def group_differences(phi: Phi, x, u, nominal, groups, step: float, scheme: str) -> np.ndarray:
-    """Difference quotients (len(groups), ndx + 1 + n) of phi's output [x' (tangent), contact
-    forces f] for each group of columns perturbed together: forward (phi(x + h e) (-)
-    phi(x)) / h about ``nominal`` = (x', f) (None: phi's own step from (x, u)) or central
-    (phi(x + h e) (-) phi(x - h e)) / 2h. A failed evaluation gives a row of NaN."""
-    layout = phi.layout
-    if scheme != "central" and nominal is None:
-        nominal = phi.step_forces(x, u)
-    out = np.empty((len(groups), layout.ndx + phi.num_forces))
-    for g, cols in enumerate(groups):
-        x_plus, f_plus = phi.step_forces(*perturbed(layout, x, u, cols, step))
-        if scheme == "central":
-            x_minus, f_minus = phi.step_forces(*perturbed(layout, x, u, cols, -step))
-            width = 2 * step
-        else:
-            (x_minus, f_minus), width = nominal, step
-        out[g] = np.concatenate([layout.difference(x_plus, x_minus), f_plus - f_minus]) / width
-    return out
-
-
-def dense_jacobians(phi: Phi, x, u, step: float | None = None, scheme: str | None = None,
-                    forces: bool = False):
-    """Brute force: every column perturbed alone; (A (ndx, ndx), B (ndx, nu)) in tangent
-    coordinates, and with ``forces`` also the contact forces' (Fx (1 + n, ndx), Fu (1 + n,
-    nu)); ndx + nu + 1 phi evaluations (2 (ndx + nu) central). Step and scheme default to
-    phi's configuration."""
-    layout = phi.layout
-    step = phi.spec.config.fd_step if step is None else step
-    scheme = phi.spec.config.fd_scheme if scheme is None else scheme
-    nominal = phi.step_forces(x, u) if scheme == "forward" else None
-    cols = [[c] for c in range(layout.ndx + NU)]
-    D = group_differences(phi, x, u, nominal, cols, step, scheme).T
-    ndx = layout.ndx
-    jacobians = (D[:ndx, :ndx], D[:ndx, ndx:])
-    return jacobians + (D[ndx:, :ndx], D[ndx:, ndx:]) if forces else jacobians
-
-
-def group_seeds(layout: StateLayout, groups) -> np.ndarray:
-    """Seed directions ((ndx + nu) x len(groups)): column g sums the unit columns of group g."""
-    S = np.zeros((layout.ndx + NU, len(groups)))
-    for g, cols in enumerate(groups):
-        S[list(cols), g] = 1.0
-    return S
-
-
-def group_autodiff(autodiff: AutoDiffPhi, x, u, groups) -> np.ndarray:
-    """`group_differences`' result (len(groups), ndx + 1 + n) by AutoDiffXd: exact directional
-    derivatives of [x' (tangent), f] along each group's summed columns (NaN rows on failure)."""
-    return autodiff.directional(x, u, group_seeds(autodiff.phi.layout, groups)).T
-
-
-# ----------------------------------------------------------------------------- workers
-
-_WORKER_PHIS: OrderedDict = OrderedDict()  # in each worker process: spec key -> [Phi,
-# AutoDiffPhi or None (built on first use)]
-_WORKER_CACHE_SIZE = 4
-
-
-def _worker_phi(key: str, spec: PhiSpec, autodiff: bool = False):
-    """This worker's Phi of ``spec`` (or its AutoDiffPhi), built once."""
-    entry = _WORKER_PHIS.get(key)
-    if entry is None:
-        entry = _WORKER_PHIS[key] = [Phi(spec), None]
-        while len(_WORKER_PHIS) > _WORKER_CACHE_SIZE:
-            _WORKER_PHIS.popitem(last=False)
-    _WORKER_PHIS.move_to_end(key)
-    if autodiff and entry[1] is None:
-        entry[1] = AutoDiffPhi(entry[0])
-    return entry[1] if autodiff else entry[0]
-
-
-def _run_task(task):
-    """Worker entry point: ('trace', key, spec, x, u), ('groups', key, spec, x, u, nominal,
-    groups, step, scheme) or ('autodiff', key, spec, x, u, groups)."""
-    kind, key, spec, *args = task
-    if kind == "autodiff":
-        return group_autodiff(_worker_phi(key, spec, autodiff=True), *args)
-    phi = _worker_phi(key, spec)
-    if kind == "trace":
-        return phi.step_full(*args)
-    return group_differences(phi, *args)
-
-
-class WorkerPool:
-    """Spawned worker processes for phi evaluations; each builds a Phi once per spec.
-
-    'spawn' (not fork): pydrake objects are not fork-safe. Start-up (Python + pydrake import)
-    takes a second or two per worker and happens on first use; reuse one pool across specs.
-    """
-
-    def __init__(self, workers: int):
-        if workers < 1:
-            raise ValueError(f"a worker pool needs at least 1 worker, got {workers}")
-        self.workers = workers
-        self._pool = None
-
-    def _started(self):
-        if self._pool is None:
-            self._pool = multiprocessing.get_context("spawn").Pool(self.workers)
-        return self._pool
-
-    def map(self, tasks: list) -> list:
-        """Runs tasks (see `_run_task`) in the workers, results in task order."""
-        return self._started().map(_run_task, tasks, chunksize=1)
-
-    def warm_up(self, spec: PhiSpec) -> None:
-        """Starts the workers and has them build ``spec``'s Phi (a timing convenience: a
-        worker that takes none of these tasks builds it on first use)."""
-        self._started().map(_build_only, [(spec.key, spec)] * (2 * self.workers), chunksize=1)
-
-    def close(self) -> None:
-        """Stops the workers."""
-        if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
-            self._pool = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-
-def _build_only(args) -> bool:
-    _worker_phi(*args)
-    return True
-
-
-# ----------------------------------------------------------------------------- linearizer
+from drake_clutter.dynamics import ARM_DIM, ARM_NODE, NU, Phi, PhiSpec
 
 
 @dataclass
@@ -517,7 +342,6 @@ class PhiDynamics:
         """`_evaluate`'s first pass: AutoDiffXd at the knots where ``autodiff(w)``, finite
         differences elsewhere; split into pool tasks (one per AutoDiffXd knot)."""
         h, scheme = self.config.fd_step, self.config.fd_scheme
-        own = self.dspec is self.spec  # else the derivative phi steps its own nominal
         if self.pool is None:
             return [self._serial(w, h, scheme, autodiff(w)) for w in work]
         fd_groups = sum(len(w.groups) for w in work if not autodiff(w))
@@ -529,9 +353,8 @@ class PhiDynamics:
                 owners.append(i)
                 continue
             for start in range(0, len(w.groups), chunk):
-                tasks.append(("groups", self.dspec.key, self.dspec, w.x, w.u,
-                              w.nominal if own else None, w.groups[start:start + chunk], h,
-                              scheme))
+                tasks.append(("groups", self.dspec.key, self.dspec, w.x, w.u, self._nominal(w),
+                              w.groups[start:start + chunk], h, scheme))
                 owners.append(i)
         parts: list[list[np.ndarray]] = [[] for _ in work]
         for i, result in zip(owners, self.pool.map(tasks), strict=True):
@@ -539,13 +362,16 @@ class PhiDynamics:
         width = self.layout.ndx + self.num_forces
         return [np.vstack(p) if p else np.zeros((0, width)) for p in parts]
 
+    def _nominal(self, w: _KnotWork):
+        """The nominal step forward differences are taken about: the rollout's own (x', f) when
+        phi is differentiated as it rolls out, else None (the SAP copy steps its own)."""
+        return w.nominal if self.dspec is self.spec else None
+
     def _serial(self, w: _KnotWork, h: float, scheme: str, autodiff: bool) -> np.ndarray:
         if self._dphi is None:
             self._dphi = Phi(self.dspec)
-        own = self._dphi is self.phi
         if not autodiff:
-            return group_differences(self._dphi, w.x, w.u, w.nominal if own else None,
-                                     w.groups, h, scheme)
+            return group_differences(self._dphi, w.x, w.u, self._nominal(w), w.groups, h, scheme)
         if self._autodiff is None:
             self._autodiff = AutoDiffPhi(self._dphi)
         return group_autodiff(self._autodiff, w.x, w.u, w.groups)

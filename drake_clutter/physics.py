@@ -49,7 +49,8 @@ import numpy as np
 from drake_clutter import ilqr, robot_model
 from drake_clutter.baseline import plan_baseline
 from drake_clutter.config import Config, ConfigError
-from drake_clutter.derivatives import PhiDynamics, WorkerPool, check_derivative_method
+from drake_clutter.derivative_workers import WorkerPool
+from drake_clutter.derivatives import PhiDynamics, check_derivative_method
 from drake_clutter.dynamics import (
     ARM_DIM,
     StateLayout,

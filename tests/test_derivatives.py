@@ -10,16 +10,9 @@ import pytest
 from reach_paths import straight_reach
 
 from drake_clutter.config import DynamicsConfig
-from drake_clutter.derivatives import (
-    PhiDynamics,
-    WorkerPool,
-    colour_groups,
-    components,
-    dense_jacobians,
-    differentiated_knots,
-    interpolate_between,
-    node_columns,
-)
+from drake_clutter.derivative_groups import colour_groups, components, dense_jacobians, node_columns
+from drake_clutter.derivative_workers import WorkerPool
+from drake_clutter.derivatives import PhiDynamics, differentiated_knots, interpolate_between
 from drake_clutter.derivatives_autodiff import AutoDiffPhi
 from drake_clutter.dynamics import (
     ARM_DIM,
@@ -216,7 +209,7 @@ def test_finite_differences_agree_with_autodiff(hydro10):
 def test_seeded_autodiff_is_the_full_jacobian_times_the_seeds(hydro10):
     """AutoDiffXd seeded with colour groups gives J S exactly (state and force rows), and
     agrees with the groups' finite differences."""
-    from drake_clutter.derivatives import group_autodiff, group_differences, group_seeds
+    from drake_clutter.derivative_groups import group_autodiff, group_differences, group_seeds
 
     dynamics, xs, us = hydro10
     t = 6  # the arm pushes box_06

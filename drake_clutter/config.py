@@ -364,6 +364,12 @@ class PhysicsConfig:
     # failure into a failure to grasp with nothing disturbed, left the other failures failures,
     # and changed one outcome by a box (fig7 -0.21, 3 further iterations on a converged path:
     # Bullet's cascade is that sensitive); fig8 -0.21 converges at c_static 7.3 (c_match)
+    sweep_spacing: float = 0.01  # m; ours: c_static / c_static_hull / c_dynamic sampled on a
+    # knot interval take at least sweep / sweep_spacing configurations, sweep bounding how far
+    # an arm point travels (`ArmGeometry.sweep`); 0 = the fixed counts alone. Measured
+    # (fig6 at alpha -0.21, 2026-11-23): the physics plan swung a finger 30 cm through the
+    # 3 cm board within one 0.2 s interval, between two of the post-processing's 6 samples;
+    # the post's c_static read 0.002 and Bullet failed kinematically (8.6 mm deep)
     post_variant: str = "evaluation"  # arm geometry of the post-processing's c_static; Sec.
     # V-B: it corrects collisions that appear when switching to the evaluation model
     post_substeps: int = 6  # configurations per knot interval in the post-processing's

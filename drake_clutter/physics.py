@@ -444,6 +444,7 @@ def check_config(config: Config) -> None:
               ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
               ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
               ("post_substeps", cfg.post_substeps >= 1, "at least 1"),
+              ("sweep_spacing", cfg.sweep_spacing >= 0.0, "non-negative (0 = off)"),
               ("force_stiffness", cfg.force_stiffness > 0, "positive"),
               ("hold_knots", cfg.hold_knots >= 0, "at least 0"),
               ("w_static_deep", cfg.w_static_deep >= 0, "non-negative"),

@@ -51,6 +51,8 @@ Every `terms` value is weighted (Table II / `PhysicsConfig`); `quadratize` retur
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydrake.math import RigidTransform
 
@@ -111,13 +113,19 @@ def _distance_row(c: Contact, columns: int, box_columns: dict[str, int] | None) 
 
 def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: float,
                         exclude: tuple[str, ...] = (), shelf_only: bool = False,
-                        deep: tuple[float, float] = (0.0, 0.0)) -> dict[str, Term]:
+                        deep: tuple[float, float] = (0.0, 0.0),
+                        spacing: float = 0.0) -> dict[str, Term]:
     """Mean over ``substeps`` configurations on the segment (q_a, q_b] of the penetration of
     the arm and the shelf ("shelf") and of the arm and the boxes but ``exclude`` ("boxes"),
     boxes fixed, each a Term over (q_a, q_b) (16,): the baseline's approximation of a link's
     convex hull between two knots (c_static_hull, c_dynamic; c_static with ``shelf_only``,
     which skips the boxes' distances). ``deep`` = (weight, depth): the shelf part adds weight
-    x `deep_penetration_term` (depth, m). One distance query per configuration serves both."""
+    x `deep_penetration_term` (depth, m). One distance query per configuration serves both.
+    ``spacing`` (m) > 0 raises the count so that no arm point travels more than about that
+    between samples (`ArmGeometry.sweep`): a fast segment cannot carry a finger through the
+    board unseen. The count is held fixed in the derivatives."""
+    if spacing > 0.0:
+        substeps = max(substeps, math.ceil(geometry.sweep(q_a, q_b) / spacing))
     zero = Term(0.0, np.zeros(2 * ARM_DIM), np.zeros((2 * ARM_DIM, 2 * ARM_DIM)))
     out = {"shelf": zero, "boxes": zero}
     for k in range(1, substeps + 1):
@@ -245,7 +253,8 @@ class PhysicsObjective:
         q_prev = z[self.nx:self.nx + ARM_DIM]
         if cfg.phi_static_substeps > 1:
             term = segment_penetration(geometry, q_prev, z[:ARM_DIM], cfg.phi_static_substeps,
-                                       self.d_safe, shelf_only=True, deep=deep)["shelf"]
+                                       self.d_safe, shelf_only=True, deep=deep,
+                                       spacing=cfg.sweep_spacing)["shelf"]
             columns = [*range(self.ndx, self.ndx + ARM_DIM), *range(ARM_DIM)]
             return _embed(term, columns, self.nz).scaled(cfg.w_static)
         shelf = [c for c in contacts if c.obstacle == SHELF]
@@ -423,12 +432,12 @@ class KinematicObjective:
         cfg, eye = self.config, np.eye(ARM_DIM)
         if self.mode == "pre":
             hull = segment_penetration(self.geometry, q, u, cfg.hull_substeps, self.d_safe,
-                                       (self.target,))
+                                       (self.target,), spacing=cfg.sweep_spacing)
             return {"static_hull": hull["shelf"].scaled(self.w_static_hull),
                     "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
                     "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
         static = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
-                                     shelf_only=True)["shelf"]
+                                     shelf_only=True, spacing=cfg.sweep_spacing)["shelf"]
         on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
         match = costs.match(u, self.q_ref[t + 1])
         mvel = costs.match_velocity(u, q, self.q_ref[t + 1], self.q_ref[t])

@@ -29,6 +29,8 @@ from drake_clutter.trajectory import robot_positions
 from drake_clutter.world import World, box_rest_pose, build_planning_world
 
 SHELF = "shelf"  # the obstacle name of every shelf part in `Contact.obstacle`
+SWEEP_REACH = 0.15  # m, how far from its body origin an arm geometry reaches (the PR2 finger
+# pads, the farthest, end ~0.11 m from the finger frame): `ArmGeometry.sweep`'s lever arm
 
 
 @dataclass(frozen=True)
@@ -120,6 +122,26 @@ class ArmGeometry:
         X_WB = self._poses[name]
         r = X_WB.rotation().multiply(X_BoxG.multiply(p_other))  # witness point from p_WB, in W
         return Contact(float(distance), d_dq, name, np.concatenate([-np.cross(r, n), -n]))
+
+    def sweep(self, q_a, q_b, pieces: int = 4, reach: float = SWEEP_REACH) -> float:
+        """A bound (m) on how far any arm point travels as the arm moves linearly in joint
+        space from ``q_a`` to ``q_b`` (8,): the largest, over the arm's bodies, of the path
+        length of the body origin plus ``reach`` times the angle the body turns, both summed
+        over ``pieces`` equal chords of the segment (the boxes are not moved)."""
+        bodies = [self.plant.get_body(i) for i in self.plant.GetBodyIndices(self.world.robot)]
+        poses = []
+        for lam in np.linspace(0.0, 1.0, pieces + 1):
+            self.set_state((1.0 - lam) * np.asarray(q_a) + lam * np.asarray(q_b))
+            poses.append([self.plant.EvalBodyPoseInWorld(self.context, b) for b in bodies])
+        longest = 0.0
+        for j in range(len(bodies)):
+            path = 0.0
+            for before, after in zip(poses[:-1], poses[1:], strict=True):
+                X = before[j].InvertAndCompose(after[j])
+                path += (np.linalg.norm(X.translation())
+                         + reach * abs(X.rotation().ToAngleAxis().angle()))
+            longest = max(longest, path)
+        return longest
 
     def tool(self, q) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(p_WG (3,), z axis of G in W (3,), dp_WG/dq (3, 8), dz/dq (3, 8)) at ``q`` (8,)."""

@@ -21,6 +21,7 @@ from drake_clutter.physics_costs import (
     KinematicObjective,
     PhysicsObjective,
     deep_penetration_term,
+    segment_penetration,
 )
 from drake_clutter.physics_geometry import SHELF, ArmGeometry
 
@@ -347,8 +348,12 @@ def test_kinematic_objective_gradients_match_differences(scene, mode):
     geometry = ArmGeometry(scene, "capsules")  # its own: boxes at rest, whatever ran before
     q_ref = np.array([Q_PREGRASP + d for d in (-0.2, -0.1, 0.0)])
     p_goal = geometry.tool(Q_PREGRASP)[0] + 0.01
-    objective = KinematicObjective(geometry, PhysicsConfig(), mode, 0.02, "target",
-                                   q_ref=q_ref, p_pregrasp=p_goal)
+    # The fixed sample counts (no sweep_spacing): the spacing only sets how many samples
+    # (held fixed in the derivatives). With 10-30 samples of this segment c_dynamic's central
+    # differences part from its expansion by 0.1-0.5% (measured; 1.8e-4 with 2), varying
+    # with where the samples fall: the arm-box penetration depths are not smooth to 1e-6.
+    objective = KinematicObjective(geometry, PhysicsConfig(sweep_spacing=0.0), mode, 0.02,
+                                   "target", q_ref=q_ref, p_pregrasp=p_goal)
     q, u = Q_PREGRASP - 0.05, Q_PREGRASP + np.r_[0.0, 0.1, np.zeros(6)]
     for name, term in objective.running(1, q, u).items():
         numeric = _numeric_gradient(
@@ -363,9 +368,10 @@ def test_kinematic_objective_gradients_match_differences(scene, mode):
 
 def test_postprocessing_clears_the_board_between_knots(scene):
     """A wrist roll of pi in one interval near the board: both knots clear it (2.7 cm) but the
-    fingers sweep 7 mm into it half-way. c_static at the knots alone (post_substeps 1) sees
-    nothing and leaves the path; over 6 configurations per interval the post-processing lifts
-    the sweep clear. (c_speed off: the roll is over the speed limit, not the point here.)"""
+    fingers sweep 7 mm into it half-way. c_static at the knots alone (post_substeps 1, no
+    sweep_spacing) sees nothing and leaves the path; over 6 configurations per interval, or
+    as many as the sweep needs at 1 cm spacing, the post-processing lifts the sweep clear.
+    (c_speed off: the roll is over the speed limit, not the point here.)"""
     import dataclasses
 
     from drake_clutter.config import Config
@@ -384,8 +390,9 @@ def test_postprocessing_clears_the_board_between_knots(scene):
     assert clearance(q_a, q_a) > 0.025 and clearance(q_b, q_b) > 0.025
     assert clearance(q_a, q_b) < -0.005
     base = Config()
-    for substeps, clears in ((1, False), (6, True)):
-        physics = dataclasses.replace(base.physics, post_substeps=substeps, w_speed=0.0)
+    for substeps, spacing, clears in ((1, 0.0, False), (6, 0.0, True), (1, 0.01, True)):
+        physics = dataclasses.replace(base.physics, post_substeps=substeps, w_speed=0.0,
+                                      sweep_spacing=spacing)
         q, result = postprocess(scene, path, dataclasses.replace(base, physics=physics),
                                 geometry)
         if clears:
@@ -395,6 +402,47 @@ def test_postprocessing_clears_the_board_between_knots(scene):
         else:
             assert result.term_history[0]["static"] == 0.0
             np.testing.assert_array_equal(q, path)
+
+
+# A knot interval of a physics plan for fig6 at alpha -0.21 after the post-processing with 6
+# fixed samples (2026-11-23; rounded): a finger crosses the 3 cm board within 0.2 s, between
+# two samples, and Bullet failed the plan kinematically (8.6 mm deep).
+FIG6_WHIP = (np.array([-0.231, -0.458, -2.348, -1.666, -3.522, -1.961, -0.441, 0.036]),
+             np.array([-0.607, -0.109, -2.936, -2.005, -2.894, -1.422, -0.425, 0.0]))
+
+
+def test_a_finger_whipped_through_the_board_is_seen_with_sweep_spacing():
+    """FIG6_WHIP: both knots and the 6 evenly spaced samples clear the board, a dense scan
+    finds a finger > 5 mm inside it. segment_penetration with 6 samples reads 0; with 1 cm
+    sweep spacing it takes enough samples to see the crossing. The sweep bounds how far the
+    finger frames and the tool frame travel along the segment."""
+    fig6 = scenes.load_shipped_scene("fig6_push_sideways")
+    geometry = ArmGeometry(fig6, "evaluation")
+    q_a, q_b = FIG6_WHIP
+
+    def depth(s):
+        return max((-c.distance for c in geometry.contacts((1 - s) * q_a + s * q_b, None, 0.0,
+                                                            "shelf")), default=0.0)
+
+    assert max(depth(s) for s in np.arange(7) / 6) == 0.0
+    assert max(depth(s) for s in np.linspace(0.0, 1.0, 201)) > 0.005  # measured 14 mm
+    fixed = segment_penetration(geometry, q_a, q_b, 6, 0.01, shelf_only=True)["shelf"]
+    swept = segment_penetration(geometry, q_a, q_b, 6, 0.01, shelf_only=True,
+                                spacing=0.01)["shelf"]
+    assert fixed.value == 0.0 and swept.value > 0.0
+    assert np.linalg.norm(swept.gradient) > 0.0
+    sweep = geometry.sweep(q_a, q_b)
+    assert geometry.sweep(q_a, q_a) == 0.0
+    plant = geometry.plant
+    frames = [plant.GetFrameByName(n) for n in ("r_gripper_l_finger_link",
+                                                 "r_gripper_r_finger_link")]
+    frames.append(geometry.world.tool_frame)
+    for frame in frames:
+        points = []
+        for s in np.linspace(0.0, 1.0, 101):
+            geometry.set_state((1 - s) * q_a + s * q_b)
+            points.append(frame.CalcPoseInWorld(geometry.context).translation())
+        assert np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)) <= sweep
 
 
 # ----------------------------------------------------------------------------- pipeline

@@ -340,7 +340,14 @@ class PhysicsConfig:
     # a joint's move per knot over speed_fraction x its PR2 speed limit, added to c_acc's
     # interval term (the evaluation rejects plans beyond the limits; at w_acc = 1e-3 alone the
     # physics stage moved the shoulder pan at 2-6 rad/s on fig5, measured)
-    speed_fraction: float = 0.9  # ours: c_speed's margin below the PR2's joint speed limits
+    speed_fraction: float = 0.25  # ours: c_speed's cap, a fraction of the PR2's joint speed
+    # limits (it also scales step_limit_fraction's trust region). Measured (2026-11-24): the
+    # baseline's paths stay under 0.10 of the limits; at 0.9, 17 of 21 stored physics plans
+    # of the behaviour scenes (alpha +-0.21) went over 0.3 of the limits on 1-29 of 29 knots
+    # (15 reached 0.84; one swung a finger 30 cm in 0.2 s) and 10 of those 17 failed
+    # kinematically in Bullet, none of the 4 that stayed under 0.25. At 0.25 (same code
+    # otherwise) the alpha-0 behaviour plans failed kinematically on 1 of 4 scenes instead
+    # of 3 (README)
     grasp_smoothing: float = 0.005  # m, c_grasp = sqrt(d^2 + eps^2) - eps; ours: smooth
     # below 5 mm, the paper's distance beyond
     force_source: Literal["phi", "proxy"] = "phi"  # c_force's force(q, x): "phi" = phi's

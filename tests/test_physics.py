@@ -580,11 +580,11 @@ def _grade(outcome) -> tuple[int, int]:
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
     "issue 6 open: at alpha = 0 the baseline fails in Bullet on all four scenes; the physics "
-    "plan is the same on fig5 (failure to grasp, 1 tipped) and fails kinematically on fig6 "
-    "(the target pressed into the board with 52 N beyond its weight at 5.88 s), fig7 (the "
-    "wrist roll lags 0.028 rad at 5.67 s) and fig8 (row1_far pushed into the shelf with 52 N "
-    "at 5.80 s) - README, measured 2026-11-24 with 40 post-processing iterations and "
-    "sweep_spacing 1 cm. strict: an unexpected pass fails the run, so this mark "
+    "plan is worse on fig5 (failure to grasp with 2 tipped vs 1), the same on fig6 (failure "
+    "to grasp, 3 tipped), better on fig7 (failure to grasp, only the target tipped, vs 3 "
+    "tipped + 2 fell) and fails kinematically on fig8 (the wrist roll lags 0.028 rad at "
+    "5.28 s) - README, measured 2026-11-24 with speed_fraction 0.25, 40 post-processing "
+    "iterations and sweep_spacing 1 cm. strict: an unexpected pass fails the run, so this mark "
     "must go when the behaviours are reached."))
 def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():
     """Sec. VI-A: from the same angle (the scene's provenance alpha), the physics plan does at

@@ -59,6 +59,8 @@ class ArmGeometry:
                         for i in self.plant.GetBodyIndices(self.world.robot)}
         box_frames = {self.plant.GetBodyFrameIdOrThrow(self.world.box_body(n).index()): n
                       for n in self.world.box_names}
+        self._robot_bodies = [self.plant.get_body(i)
+                              for i in self.plant.GetBodyIndices(self.world.robot)]
         self._robot_geometry, self._box_geometry = {}, {}
         for gid in inspector.GetAllGeometryIds():
             frame, X = inspector.GetFrameId(gid), inspector.GetPoseInFrame(gid)
@@ -128,7 +130,7 @@ class ArmGeometry:
         space from ``q_a`` to ``q_b`` (8,): the largest, over the arm's bodies, of the path
         length of the body origin plus ``reach`` times the angle the body turns, both summed
         over ``pieces`` equal chords of the segment (the boxes are not moved)."""
-        bodies = [self.plant.get_body(i) for i in self.plant.GetBodyIndices(self.world.robot)]
+        bodies = self._robot_bodies
         poses = []
         for lam in np.linspace(0.0, 1.0, pieces + 1):
             self.set_state((1.0 - lam) * np.asarray(q_a) + lam * np.asarray(q_b))

@@ -55,12 +55,12 @@ class ArmGeometry:
         self.context = self.plant.GetMyMutableContextFromRoot(self.root)
         self._robot_q = self.world.robot_position_indices()
         inspector = self.world.scene_graph.model_inspector()
-        robot_frames = {self.plant.GetBodyFrameIdOrThrow(i): i
-                        for i in self.plant.GetBodyIndices(self.world.robot)}
-        box_frames = {self.plant.GetBodyFrameIdOrThrow(self.world.box_body(n).index()): n
-                      for n in self.world.box_names}
         self._robot_bodies = [self.plant.get_body(i)
                               for i in self.plant.GetBodyIndices(self.world.robot)]
+        robot_frames = {self.plant.GetBodyFrameIdOrThrow(b.index()): b.index()
+                        for b in self._robot_bodies}
+        box_frames = {self.plant.GetBodyFrameIdOrThrow(self.world.box_body(n).index()): n
+                      for n in self.world.box_names}
         self._robot_geometry, self._box_geometry = {}, {}
         for gid in inspector.GetAllGeometryIds():
             frame, X = inspector.GetFrameId(gid), inspector.GetPoseInFrame(gid)

@@ -350,6 +350,15 @@ class PhysicsConfig:
     # of 3 (README)
     grasp_smoothing: float = 0.005  # m, c_grasp = sqrt(d^2 + eps^2) - eps; ours: smooth
     # below 5 mm, the paper's distance beyond
+    approach_knots: int = 0  # ours (not in Table I): the last knots (Delta included) on which
+    # c_approach and c_approach_axis hold the gripper on the candidate's straight approach: the
+    # tool frame on the line through the target's centre along the baseline's final approach
+    # axis d, its approach axis x_G along d (the fingers must straddle the target; Sec. IV's
+    # approach lines). 0 = off. Why: the alpha-0 physics plans reached the target from above or
+    # sideways (tool 2-20 cm off the line, x_G 13-30 deg off d over the last 0.8 s) where the
+    # baseline comes straight in, and a finger landed on fig7's target (149 N, measured)
+    w_approach: float = 1e5  # ours: weight of c_approach = 1/2 offset^2 (m^2): 1 cm costs 5
+    w_approach_axis: float = 1e3  # ours: weight of c_approach_axis = 1 - x_G.d: 0.1 rad costs 5
     force_source: Literal["phi", "proxy"] = "phi"  # c_force's force(q, x): "phi" = phi's
     # contact forces per knot (Table I: forces between all pairs of objects, from the
     # simulation) with their Jacobians from phi's derivatives; "proxy" = force_stiffness x the

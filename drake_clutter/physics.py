@@ -292,13 +292,15 @@ def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
 
 def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
                   pool: WorkerPool | None = None, times: np.ndarray | None = None,
-                  alternatives: tuple[np.ndarray, ...] = ()
+                  alternatives: tuple[np.ndarray, ...] = (),
+                  approach: np.ndarray | None = None
                   ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
     """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
     default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
     stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
     shape and start), iLQR starts from whichever of ``q`` and them has the lowest objective in
-    this stage's phi (pruned to ``q``); info's ``start_objectives`` lists them."""
+    this stage's phi (pruned to ``q``); info's ``start_objectives`` lists them. ``approach``:
+    the final approach direction in W of c_approach (`PhysicsConfig.approach_knots`)."""
     knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
     spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
                                     variant)
@@ -323,7 +325,7 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
         objective = PhysicsObjective(ArmGeometry(scene, variant), layout, config.physics, x0,
                                      scene.target, knot_time, config.baseline.d_safe,
                                      force_exclude=held, static_geometry=static,
-                                     forces=dynamics)
+                                     forces=dynamics, approach=approach)
         augmented = AugmentedPhi(dynamics, config.physics.max_spectral_radius)
         if config.physics.hold_knots > 0:
             objective = HoldTail(objective, dynamics, config.physics.hold_knots,
@@ -355,14 +357,14 @@ def _path_objective(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.
 
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
                           variant: str, iterations: int, pool, times,
-                          alternatives: tuple[np.ndarray, ...] = ()):
+                          alternatives: tuple[np.ndarray, ...] = (), approach=None):
     """`physics_stage` from ``paths[0]`` (or the best of ``alternatives``, see there); if phi
     cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
     the pre-processing or sphere stage produced with the hydroelastic phi of issue 5, measured
     on fig7); its info says which."""
     try:
         q, result, info = physics_stage(scene, paths[0], config, variant, iterations, pool,
-                                        times, alternatives)
+                                        times, alternatives, approach)
         best = int(np.argmin(info["start_objectives"]))
         return q, result, {**info, "started_from": "previous stage" if best == 0 else
                            f"alternative {best}"}
@@ -370,7 +372,7 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
         if np.array_equal(paths[0], paths[1]):
             raise
         q, result, info = physics_stage(scene, paths[1], config, variant, iterations, pool,
-                                        times)
+                                        times, approach=approach)
         return q, result, {**info, "started_from": f"baseline ({exc})"}
 
 
@@ -389,6 +391,8 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     cfg = config.physics
     q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
+    # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV).
+    approach = ArmGeometry(scene, "capsules").tool_axis(baseline_q[-1], 0)[0]
     tic = time.perf_counter()
     try:
         q, result = preprocess(scene, q, config)
@@ -412,7 +416,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
             others = (q_pre,) if name == "full" and q is not q_pre else ()
             q, result, info = _phi_stage_or_restart(scene, (q, baseline_q), config, variant,
                                                     iterations, pool, candidate.trajectory.times,
-                                                    others)
+                                                    others, approach)
         except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
             timings[name] = time.perf_counter() - tic
             return _failed(candidate, f"{name} stage: {exc}", timings, details)
@@ -455,6 +459,9 @@ def check_config(config: Config) -> None:
               ("w_force_excess", cfg.w_force_excess >= 0, "non-negative"),
               ("force_limit", cfg.force_limit >= 0, "non-negative"),
               ("w_speed", cfg.w_speed >= 0, "non-negative"),
+              ("approach_knots", cfg.approach_knots >= 0, "at least 0"),
+              ("w_approach", cfg.w_approach >= 0, "non-negative"),
+              ("w_approach_axis", cfg.w_approach_axis >= 0, "non-negative"),
               ("speed_fraction", cfg.speed_fraction > 0, "positive"),
               ("tolerance", cfg.tolerance >= 0, "non-negative"),
               ("line_search_steps", cfg.line_search_steps >= 1, "at least 1"),

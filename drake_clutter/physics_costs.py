@@ -199,14 +199,18 @@ class PhysicsObjective:
     target); ``static_geometry`` (default: ``geometry``) is the arm whose distances to the shelf
     make c_static (the sphere stage's capsules). ``forces``: phi's contact forces
     (``step_forces(x, u)`` and ``linearize_forces(xs, us)``, as `derivatives.PhiDynamics`)
-    for c_force, unless ``config.force_source`` is "proxy".
+    for c_force, unless ``config.force_source`` is "proxy". ``approach``: the direction (W) of
+    c_approach / c_approach_axis on the last ``approach_knots`` knots (None: no such terms).
     """
 
     def __init__(self, geometry: ArmGeometry, layout: StateLayout, config: PhysicsConfig,
                  x0: np.ndarray, target: str, knot_time: float, d_safe: float,
                  force_exclude: tuple[str, ...] = (),
-                 static_geometry: ArmGeometry | None = None, forces=None):
+                 static_geometry: ArmGeometry | None = None, forces=None,
+                 approach: np.ndarray | None = None):
         self.geometry, self.layout, self.config = geometry, layout, config
+        self.approach = (None if approach is None
+                         else np.asarray(approach, dtype=float) / np.linalg.norm(approach))
         self.knot_time, self.d_safe = knot_time, d_safe
         self.force_exclude = tuple(force_exclude)
         self.forces = forces if config.force_source == "phi" else None
@@ -230,8 +234,10 @@ class PhysicsObjective:
                 for n, b in zip(self.layout.box_names, self.layout.boxes(z[:self.nx]),
                                 strict=True)}
 
-    def state_terms(self, z: np.ndarray, terminal: bool) -> dict[str, Term]:
-        """Weighted Terms over dz (nz,) of the costs on one knot's state (t >= 1)."""
+    def state_terms(self, z: np.ndarray, terminal: bool, approach: bool = False
+                    ) -> dict[str, Term]:
+        """Weighted Terms over dz (nz,) of the costs on one knot's state (t >= 1); with
+        ``approach``, c_approach and c_approach_axis too (if the objective has a direction)."""
         cfg, q = self.config, z[:ARM_DIM]
         contacts = self.geometry.contacts(q, self.box_poses(z), self.d_safe)
         out = {"static": self._static(z, contacts)}
@@ -240,7 +246,13 @@ class PhysicsObjective:
         out.update(self._box_terms(z))
         if terminal:
             out.update(self._terminal(z))
+        if approach and self.approach is not None:
+            out.update(self._approach(z))
         return out
+
+    def in_approach(self, t: int, T: int) -> bool:
+        """Whether knot t of 1..T is one of the last ``approach_knots``."""
+        return t > T - self.config.approach_knots
 
     def _static(self, z: np.ndarray, contacts: list[Contact]) -> Term:
         """Weighted c_static over dz: at the knot from ``contacts`` (``phi_static_substeps``
@@ -292,19 +304,36 @@ class PhysicsObjective:
     def _terminal(self, z: np.ndarray) -> dict[str, Term]:
         cfg, q = self.config, z[:ARM_DIM]
         p, axis_z, dp, dz = self.geometry.tool(q)
-        arm = list(range(ARM_DIM))
-        if self.target_index is None:
-            grasp = _embed(grasp_distance(p, dp, self.p_target, cfg.grasp_smoothing), arm,
-                           self.nz, first=ARM_DIM)
-        else:
-            s = self.box_columns[self.target] + 3
-            p_target = self.layout.boxes(z[:self.nx])[self.target_index, 4:7]
-            grasp = _embed(grasp_distance(p, dp, p_target, cfg.grasp_smoothing),
-                           arm + [s, s + 1, s + 2], self.nz)
-        horiz = _embed(costs.gripper_horizontal(axis_z, dz), arm, self.nz)
+        p_target, columns, first = self._target_point(z)
+        grasp = _embed(grasp_distance(p, dp, p_target, cfg.grasp_smoothing), columns, self.nz,
+                       first=first)
+        horiz = _embed(costs.gripper_horizontal(axis_z, dz), list(range(ARM_DIM)), self.nz)
         grp_open = _embed(costs.gripper_open(q[7], OPEN), [7], self.nz)
         return {"grasp": grasp.scaled(cfg.w_grasp), "grp_horiz": horiz.scaled(cfg.w_grp_horiz),
                 "grp_open": grp_open.scaled(cfg.w_grp_open)}
+
+    def _target_point(self, z: np.ndarray) -> tuple[np.ndarray, list[int], int | None]:
+        """c_grasp's point (the target's centre in W: its state position when kept, else its
+        resting pose), the columns of dz over (arm, that point) and `_embed`'s ``first``."""
+        arm = list(range(ARM_DIM))
+        if self.target_index is None:
+            return self.p_target, arm, ARM_DIM
+        s = self.box_columns[self.target] + 3
+        return (self.layout.boxes(z[:self.nx])[self.target_index, 4:7], arm + [s, s + 1, s + 2],
+                None)
+
+    def _approach(self, z: np.ndarray) -> dict[str, Term]:
+        """Weighted c_approach and c_approach_axis (see `PhysicsConfig.approach_knots`) on one
+        knot's state, along ``self.approach`` (unit, W)."""
+        cfg, q = self.config, z[:ARM_DIM]
+        p, _, dp, _ = self.geometry.tool(q)
+        p_target, columns, first = self._target_point(z)
+        line = _embed(costs.approach_line(p, dp, p_target, self.approach), columns, self.nz,
+                      first=first)
+        axis = _embed(costs.approach_axis(*self.geometry.tool_axis(q, 0), self.approach),
+                      list(range(ARM_DIM)), self.nz)
+        return {"approach": line.scaled(cfg.w_approach),
+                "approach_axis": axis.scaled(cfg.w_approach_axis)}
 
     def acc_term(self, z: np.ndarray, u: np.ndarray) -> Term:
         """Weighted c_acc + w_speed c_speed over (dz, du) (nz + 8,) of the interval from z
@@ -324,7 +353,8 @@ class PhysicsObjective:
         out: dict[str, float] = {}
         T = len(us)
         for t in range(1, T + 1):
-            for name, term in self.state_terms(zs[t], terminal=t == T).items():
+            terms = self.state_terms(zs[t], terminal=t == T, approach=self.in_approach(t, T))
+            for name, term in terms.items():
                 out[name] = out.get(name, 0.0) + term.value
         out["acc"] = sum(self.acc_term(zs[t], us[t]).value for t in range(T))
         if self.forces is not None:
@@ -367,10 +397,10 @@ class PhysicsObjective:
             luu[t] += acc.hessian[nz:, nz:]
             lux[t] += acc.hessian[nz:, :nz]
             if t >= 1:
-                for term in self.state_terms(zs[t], terminal=False).values():
+                for term in self.state_terms(zs[t], False, self.in_approach(t, T)).values():
                     lx[t] += term.gradient
                     lxx[t] += term.hessian
-        for term in self.state_terms(zs[T], terminal=True).values():
+        for term in self.state_terms(zs[T], True, self.in_approach(T, T)).values():
             vx += term.gradient
             vxx += term.hessian
         if self.forces is not None:

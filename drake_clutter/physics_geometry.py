@@ -147,15 +147,27 @@ class ArmGeometry:
 
     def tool(self, q) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(p_WG (3,), z axis of G in W (3,), dp_WG/dq (3, 8), dz/dq (3, 8)) at ``q`` (8,)."""
+        X_WG, J = self._tool(q)
+        z, dz = self._axis(X_WG, J, 2)
+        return X_WG.translation(), z, J[3:], dz
+
+    def tool_axis(self, q, axis: int) -> tuple[np.ndarray, np.ndarray]:
+        """(unit ``axis`` (0 = x, the approach) of G in W (3,), its derivative d/dq (3, 8))."""
+        return self._axis(*self._tool(q), axis)
+
+    def _tool(self, q) -> tuple[RigidTransform, np.ndarray]:
+        """X_WG and G's spatial-velocity Jacobian in W over the 8 trajectory joints (6, 8)."""
         self.set_state(q)
         frame, world = self.world.tool_frame, self.plant.world_frame()
         X_WG = frame.CalcPoseInWorld(self.context)
         J = self.plant.CalcJacobianSpatialVelocity(self.context, JacobianWrtVariable.kQDot,
                                                    frame, np.zeros(3), world, world)
-        J = J[:, self._robot_q] @ self._dq_robot
-        z = X_WG.rotation().matrix()[:, 2]
-        dz = -_skew(z) @ J[:3]  # dz = w x z
-        return X_WG.translation(), z, J[3:], dz
+        return X_WG, J[:, self._robot_q] @ self._dq_robot
+
+    @staticmethod
+    def _axis(X_WG: RigidTransform, J: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+        a = X_WG.rotation().matrix()[:, axis]
+        return a, -_skew(a) @ J[:3]  # da = w x a
 
 
 def _skew(v: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ import pytest
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from scipy.spatial.transform import Rotation
 
-from drake_clutter import scenes
+from drake_clutter import costs, scenes
 from drake_clutter.config import PhysicsConfig
 from drake_clutter.dynamics import StateLayout, initial_state, pose_to_box_state, scene_box_states
 from drake_clutter.physics_costs import (
@@ -100,7 +100,11 @@ def test_tool_jacobians_match_differences(geometry):
         pm, zm, *_ = geometry.tool(q - e)
         np.testing.assert_allclose(dp[:, i], (pp - pm) / (2 * EPS), atol=1e-6)
         np.testing.assert_allclose(dz[:, i], (zp - zm) / (2 * EPS), atol=1e-6)
+        xp, xm = geometry.tool_axis(q + e, 0)[0], geometry.tool_axis(q - e, 0)[0]
+        np.testing.assert_allclose(geometry.tool_axis(q, 0)[1][:, i], (xp - xm) / (2 * EPS),
+                                   atol=1e-6)
     assert np.isclose(np.linalg.norm(z), 1.0)
+    np.testing.assert_allclose(geometry.tool_axis(q, 2)[0], z)
 
 
 def test_shelf_contacts_are_labelled(geometry):
@@ -151,7 +155,7 @@ def physics_problem(scene, geometry):
     x = initial_state(layout, q, moved)
     z = np.concatenate([x, Q_PREGRASP + 0.01])
     objective = PhysicsObjective(geometry, layout, PhysicsConfig(), x0, "target",
-                                 knot_time=0.2, d_safe=0.02)
+                                 knot_time=0.2, d_safe=0.02, approach=np.array([1.0, 0.2, 0.05]))
     return objective, layout, z
 
 
@@ -163,14 +167,15 @@ def _retract_z(layout, z, dz):
 @pytest.mark.parametrize("terminal", [False, True])
 def test_state_terms_gradients_match_differences(physics_problem, terminal):
     objective, layout, z = physics_problem
-    terms = objective.state_terms(z, terminal)
+    terms = objective.state_terms(z, terminal, approach=terminal)
     assert terms["force"].value > 0 and terms["upright"].value > 0 and terms["motion"].value > 0
     if terminal:
         assert terms["grasp"].value > 0 and terms["grp_open"].value > 0
+        assert terms["approach"].value > 0 and terms["approach_axis"].value > 0
     names = sorted(terms)
 
     def values(d):
-        found = objective.state_terms(_retract_z(layout, z, d), terminal)
+        found = objective.state_terms(_retract_z(layout, z, d), terminal, approach=terminal)
         return np.array([found[n].value for n in names])
 
     numeric_all = _numeric_jacobian(values, np.zeros(objective.nz))
@@ -338,6 +343,38 @@ def test_trajectory_terms_and_expansion_agree(physics_problem):
     state = objective.state_terms(z, False)
     np.testing.assert_allclose(exp.lx[1] - objective.acc_term(z, us[1]).gradient[:objective.nz],
                                sum(t.gradient for t in state.values()), atol=1e-9)
+
+
+def test_approach_terms_hold_the_last_knots_only(physics_problem):
+    base, layout, z = physics_problem
+    objective = PhysicsObjective(base.geometry, layout, replace(base.config, approach_knots=2),
+                                 z[:layout.nx], "target", knot_time=0.2, d_safe=0.02,
+                                 approach=base.approach)
+    zs, us = np.array([z, z, z, z]), np.array([z[:8]] * 3)
+    assert [objective.in_approach(t, 3) for t in (1, 2, 3)] == [False, True, True]
+    terms = objective.terms(zs, us)
+    single = objective.state_terms(z, True, approach=True)
+    for name in ("approach", "approach_axis"):
+        assert terms[name] == pytest.approx(2 * single[name].value) and terms[name] > 0
+    exp = objective.quadratize(zs, us)
+    no_approach = objective.state_terms(z, False)
+    np.testing.assert_allclose(exp.lx[1] - objective.acc_term(z, us[1]).gradient[:objective.nz],
+                               sum(t.gradient for t in no_approach.values()), atol=1e-9)
+    with_approach = objective.state_terms(z, False, approach=True)
+    np.testing.assert_allclose(exp.lx[2] - objective.acc_term(z, us[2]).gradient[:objective.nz],
+                               sum(t.gradient for t in with_approach.values()), atol=1e-9)
+
+
+def test_approach_line_is_zero_on_the_line_and_grows_off_it():
+    d = np.array([1.0, 0.0, 0.0])
+    dp = np.zeros((3, 8))
+    on = costs.approach_line(np.array([0.7, 0.0, 0.8]), dp, np.array([0.8, 0.0, 0.8]), d)
+    off = costs.approach_line(np.array([0.7, 0.03, 0.84]), dp, np.array([0.8, 0.0, 0.8]), d)
+    assert on.value == pytest.approx(0.0) and off.value == pytest.approx(0.5 * 0.05**2)
+    assert costs.approach_axis(d, np.zeros((3, 8)), d).value == pytest.approx(0.0)
+    tilted = np.array([np.cos(0.1), 0.0, -np.sin(0.1)])
+    assert costs.approach_axis(tilted, np.zeros((3, 8)), d).value == pytest.approx(
+        1 - np.cos(0.1))
 
 
 # ----------------------------------------------------------------------------- kinematic

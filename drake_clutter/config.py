@@ -416,6 +416,11 @@ class PhysicsConfig:
     # (measured); 1 leaves resting and sliding boxes (radius 1) as they are; 1e9: no cap
     open_loop_fallback: bool = True  # phi stages retry a failed line search with K = 0; ours:
     # the feedback amplifies the finite-difference errors of A in contact (issue 6)
+    min_step: float = 0.0  # rad (m for the opening): a phi stage stops after an accepted
+    # step that moved no control by this much; ours, 0 = off. Why: late in the phi stages
+    # the line search accepts steps of size 1e-4..1e-7 at mu 1e4..1e7 that still lower phi's
+    # objective by 0.1-8 (fig5, fig7 at alpha 0, measured): phi's rollouts are that
+    # sensitive in contact, and each such iteration costs a full linearisation
 
 
 @dataclass(frozen=True)

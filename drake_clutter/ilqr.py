@@ -32,7 +32,9 @@ a model that predicts a decrease below a known lower bound of the objective is r
 without a rollout (mu is raised). ``ILQRResult.log``
 records every backward pass: regulariser, predicted and actual decrease, step size. Stop rules:
 the iteration cap, a relative decrease below ``tolerance``, the regulariser exceeding
-``reg_max``, or ``max_failed_searches`` failed line searches in one iteration.
+``reg_max``, ``max_failed_searches`` failed line searches in one iteration, or an accepted
+step that moved no control by ``min_step`` or more (on a chaotic rollout, a decrease from a
+step that small is noise to exploit, not progress).
 """
 
 from __future__ import annotations
@@ -106,6 +108,8 @@ class ILQRSettings:
     open_loop_fallback: bool = False  # when the closed-loop line search fails, try the same
     # step sizes with K = 0 before raising the regulariser (for inexact A: K (x - x_bar)
     # amplifies its errors)
+    min_step: float = 0.0  # stop ("small_step") after an accepted step that changed no
+    # control by more than this (its largest |u - u_bar|); 0: no such rule
 
 
 @dataclass
@@ -314,6 +318,9 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
         if improvement < settings.tolerance:
             stop_reason = "converged"
             break
+        if entry["step"] < settings.min_step:
+            stop_reason = "small_step"
+            break
     return ILQRResult(xs=xs, us=us, K=K, k=k, cost=total, cost_history=history,
                       term_history=term_history, iterations=iteration, stop_reason=stop_reason,
                       timings=timings, log=log)
@@ -350,7 +357,8 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
                 new_total = float(sum(terms.values()))
                 if new_total < total:
                     entry.update(alpha=alpha, actual=total - new_total,
-                                 open_loop=gain is not K)
+                                 open_loop=gain is not K,
+                                 step=float(np.max(np.abs(new_us - us), initial=0.0)))
                     return new_xs, new_us, terms, new_total
             alpha *= 0.5
     return None

@@ -248,7 +248,7 @@ def _settings(config: Config, iterations: int, knot_time: float | None = None
         return settings
     limit = cfg.step_limit_fraction * max_steps(cfg, knot_time)
     return replace(settings, open_loop_fallback=cfg.open_loop_fallback, cost_floor=0.0,
-                   max_failed_searches=cfg.max_failed_searches,
+                   max_failed_searches=cfg.max_failed_searches, min_step=cfg.min_step,
                    step_limit=tuple(float(v) for v in limit))
 
 
@@ -460,6 +460,7 @@ def check_config(config: Config) -> None:
               ("force_limit", cfg.force_limit >= 0, "non-negative"),
               ("w_speed", cfg.w_speed >= 0, "non-negative"),
               ("approach_knots", cfg.approach_knots >= 0, "at least 0"),
+              ("min_step", cfg.min_step >= 0, "non-negative (0 = off)"),
               ("w_approach", cfg.w_approach >= 0, "non-negative"),
               ("w_approach_axis", cfg.w_approach_axis >= 0, "non-negative"),
               ("speed_fraction", cfg.speed_fraction > 0, "positive"),

@@ -143,6 +143,19 @@ def test_iteration_cap_is_a_stop_reason():
     assert result.iterations == 2 and result.stop_reason == "max_iterations"
 
 
+def test_a_step_below_min_step_stops_the_solver_after_it_is_taken():
+    free = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)),
+                 ILQRSettings(max_iterations=60))
+    steps = [e["step"] for e in free.log if e.get("actual", 0.0) > 0]
+    assert len(steps) == free.iterations and steps[-1] < steps[0]
+    threshold = 0.5 * (steps[0] + steps[-1])
+    first_small = next(i for i, s in enumerate(steps) if s < threshold)
+    stopped = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)),
+                    ILQRSettings(max_iterations=60, min_step=threshold))
+    assert stopped.stop_reason == "small_step" and stopped.iterations == first_small + 1
+    np.testing.assert_allclose(stopped.cost_history, free.cost_history[:first_small + 2])
+
+
 def test_bad_bounds_are_rejected():
     with pytest.raises(ValueError):
         solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((5, 1)),

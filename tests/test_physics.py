@@ -562,7 +562,8 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
 
     calls = []
 
-    def stage(scene, q, config, variant, iterations, pool, times, alternatives=()):
+    def stage(scene, q, config, variant, iterations, pool, times, alternatives=(),
+              approach=None):
         calls.append(q)
         if q[0, 0] == 1.0:  # phi cannot simulate the previous stage's path
             raise physics.PhiFailure("phi failed on the initial rollout")

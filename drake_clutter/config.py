@@ -422,8 +422,8 @@ class PhysicsConfig:
     # 1e4..1e7 that still lower phi's objective by 0.1-8 (phi's rollouts are that sensitive
     # in contact), and a stage that ends on failed line searches spends 3 x 6 rollouts on
     # them. Measured on the four behaviour scenes at alpha 0 (2026-11-24): the same Bullet
-    # outcome on all four (fig7 and fig8 the same plan within 2e-4 rad), phi stages
-    # 131-254 s instead of 158-746 s (README)
+    # outcome on all four (fig7 and fig8 the same plan within 2e-4 rad); full stages 92-254 s
+    # instead of 158-746 s (two plans sharing the 2 cores against three; README)
 
 
 @dataclass(frozen=True)

@@ -622,8 +622,9 @@ def _grade(outcome) -> tuple[int, int]:
     "to grasp, 3 tipped), better on fig7 (failure to grasp, only the target tipped, vs 3 "
     "tipped + 2 fell) and fails kinematically on fig8 (the wrist roll lags 0.028 rad at "
     "5.28 s) - README, measured 2026-11-24 with speed_fraction 0.25, 40 post-processing "
-    "iterations and sweep_spacing 1 cm. strict: an unexpected pass fails the run, so this mark "
-    "must go when the behaviours are reached."))
+    "iterations, sweep_spacing 1 cm, and again with min_step 1 mrad (the same outcomes). "
+    "strict: an unexpected pass fails the run, so this mark must go when the behaviours are "
+    "reached."))
 def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():
     """Sec. VI-A: from the same angle (the scene's provenance alpha), the physics plan does at
     least as well as the baseline in Bullet on all four scenes, strictly better on three."""

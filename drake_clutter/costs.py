@@ -84,11 +84,15 @@ def motion(p: np.ndarray, p_start: np.ndarray) -> Term:
     return _quadratic(p - p_start, np.eye(len(p)))
 
 
-def _smooth_angle(cos_angle: float, dcos: np.ndarray, ddcos: np.ndarray | None) -> Term:
+def _smooth_angle(cos_angle: float, dcos: np.ndarray, ddcos: np.ndarray | None,
+                  majorize: bool = False) -> Term:
     """f = sqrt(theta^2 + eps^2) - eps for theta = acos(c), from c, dc/dargs and d2c/dargs2.
 
     With ``ddcos`` the Hessian is exact; without it (unknown second derivatives) it is the
-    Gauss-Newton f''(theta) grad(theta) grad(theta)', which is positive semi-definite.
+    Gauss-Newton f''(theta) grad(theta) grad(theta)', which is positive semi-definite; with
+    ``majorize`` it is (f'(theta) / theta) grad(theta) grad(theta)' = grad grad' / s, the
+    curvature of the quadratic in theta that lies above f and touches it at theta (f is
+    concave in theta^2), which Gauss-Newton's ~eps^2 / theta^3 is not far from upright.
     """
     c = float(np.clip(cos_angle, -1.0, 1.0))
     theta = float(np.arccos(c))
@@ -106,24 +110,27 @@ def _smooth_angle(cos_angle: float, dcos: np.ndarray, ddcos: np.ndarray | None) 
         a_exact = (f2 - f1 * np.cos(theta) / sin_t) / sin_t**2
         a_gn = f2 / sin_t**2
     gradient = b * dcos
+    if majorize:
+        return Term(value, gradient, np.outer(dcos, dcos) / (s * max(sin_t, 1e-4) ** 2))
     if ddcos is None:
         return Term(value, gradient, a_gn * np.outer(dcos, dcos))
     return Term(value, gradient, a_exact * np.outer(dcos, dcos) + b * ddcos)
 
 
-def upright(R_WB: np.ndarray, gauss_newton: bool = False) -> Term:
+def upright(R_WB: np.ndarray, gauss_newton: bool = False, majorize: bool = False) -> Term:
     """c_upright = tilt angle of the box's z axis from W's z, over a rotation vector in W (3,).
 
     Exact Hessian (it may be indefinite far from upright), or with ``gauss_newton`` the
     positive semi-definite Gauss-Newton one (what iLQR needs: an indefinite term, carried back
-    through phi's Jacobians, made Q_uu indefinite beyond any regulariser on fig6, measured).
+    through phi's Jacobians, made Q_uu indefinite beyond any regulariser on fig6, measured),
+    or with ``majorize`` the majorizer's (see `_smooth_angle`).
     """
     b = R_WB[:, 2]
     z = np.array([0.0, 0.0, 1.0])
     # b(w) = exp([w]x) b = b + w x b + 1/2 w x (w x b) + ...;  c = z . b(w)
     dcos = np.cross(b, z)
     ddcos = 0.5 * (np.outer(z, b) + np.outer(b, z)) - b[2] * np.eye(3)
-    return _smooth_angle(b[2], dcos, None if gauss_newton else ddcos)
+    return _smooth_angle(b[2], dcos, None if gauss_newton or majorize else ddcos, majorize)
 
 
 def gripper_horizontal(z_gripper_W: np.ndarray, dz_dq: np.ndarray) -> Term:

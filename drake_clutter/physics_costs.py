@@ -150,13 +150,17 @@ def _add(a: Term, b: Term, weight: float = 1.0) -> Term:
 
 
 def grasp_distance(p_tool_W: np.ndarray, dp_dq: np.ndarray, p_target_W: np.ndarray,
-                   eps: float) -> Term:
+                   eps: float, majorize: bool = False) -> Term:
     """Table I's c_grasp as a distance: sqrt(||p_gripper - p_target||^2 + eps^2) - eps (m),
-    smoothed at 0 by ``eps``, over (arm joints, target position); Gauss-Newton Hessian."""
+    smoothed at 0 by ``eps``, over (arm joints, target position); Gauss-Newton Hessian, or
+    with ``majorize`` J'J / s: the quadratic in r above the distance that touches it at r
+    (curvature along r too, where Gauss-Newton has none)."""
     r = np.asarray(p_tool_W, dtype=float) - np.asarray(p_target_W, dtype=float)
     J = np.hstack([dp_dq, -np.eye(3)])
     s = float(np.sqrt(r @ r + eps**2))
     g = J.T @ r / s
+    if majorize:
+        return Term(s - eps, g, J.T @ J / s)
     # Curvature of the distance across r (the GN of the radial part is zero): J'(I/s - rr'/s^3)J.
     H = J.T @ (np.eye(3) / s - np.outer(r, r) / s**3) @ J
     return Term(s - eps, g, H)
@@ -296,7 +300,8 @@ class PhysicsObjective:
             start = ARM_DIM + BOX_TANGENT * i
             m = costs.motion(b[4:7], self.p_start[i])
             motion = _add(motion, _embed(m, [start + 3, start + 4, start + 5], nz))
-            u = costs.upright(box_state_to_pose(b).rotation().matrix(), gauss_newton=True)
+            u = costs.upright(box_state_to_pose(b).rotation().matrix(), gauss_newton=True,
+                              majorize=self.config.distance_curvature == "majorizer")
             upright = _add(upright, _embed(u, [start, start + 1, start + 2], nz))
         return {"motion": motion.scaled(self.config.w_motion),
                 "upright": upright.scaled(self.config.w_upright)}
@@ -305,8 +310,9 @@ class PhysicsObjective:
         cfg, q = self.config, z[:ARM_DIM]
         p, axis_z, dp, dz = self.geometry.tool(q)
         p_target, columns, first = self._target_point(z)
-        grasp = _embed(grasp_distance(p, dp, p_target, cfg.grasp_smoothing), columns, self.nz,
-                       first=first)
+        majorize = cfg.distance_curvature == "majorizer"
+        grasp = _embed(grasp_distance(p, dp, p_target, cfg.grasp_smoothing, majorize), columns,
+                       self.nz, first=first)
         horiz = _embed(costs.gripper_horizontal(axis_z, dz), list(range(ARM_DIM)), self.nz)
         grp_open = _embed(costs.gripper_open(q[7], OPEN), [7], self.nz)
         return {"grasp": grasp.scaled(cfg.w_grasp), "grp_horiz": horiz.scaled(cfg.w_grp_horiz),

@@ -113,3 +113,37 @@ def test_upright_gauss_newton_hessian_is_psd_with_the_exact_gradient(tilt):
     assert np.all(np.linalg.eigvalsh(gn.hessian) >= -1e-12)
     if tilt > 1.0:  # far from upright the exact Hessian is indefinite, the reason for GN
         assert np.linalg.eigvalsh(exact.hessian).min() < 0
+
+
+@pytest.mark.parametrize("tilt", [0.005, 0.3, 1.2, 2.8])
+def test_upright_majorizer_keeps_value_and_gradient_and_adds_curvature(tilt):
+    axis = np.array([np.cos(0.7), np.sin(0.7), 0.0])
+    R0 = Rotation.from_rotvec(tilt * axis).as_matrix()
+    gn, mm = costs.upright(R0, gauss_newton=True), costs.upright(R0, majorize=True)
+    assert mm.value == gn.value
+    np.testing.assert_array_equal(mm.gradient, gn.gradient)
+    assert np.all(np.linalg.eigvalsh(mm.hessian - gn.hessian) >= -1e-9)
+    # Along the tilt the majorizer's curvature is 1 / (smoothed angle): the model's step to
+    # upright, -g / H, is the angle itself (Gauss-Newton's would be far longer).
+    tilt_axis = np.cross(R0[:, 2], [0.0, 0.0, 1.0])
+    tilt_axis /= np.linalg.norm(tilt_axis)
+    s = mm.value + costs.ANGLE_SMOOTHING
+    assert tilt_axis @ mm.hessian @ tilt_axis == pytest.approx(1.0 / s, rel=1e-6)
+
+
+def test_grasp_distance_majorizer_lies_above_the_distance():
+    from drake_clutter.physics_costs import grasp_distance
+
+    eps = 0.005
+    target = np.array([0.8, 0.0, 0.8])
+    tool = target + np.array([-0.1, 0.02, 0.03])
+    gn = grasp_distance(tool, np.eye(3), target, eps)
+    mm = grasp_distance(tool, np.eye(3), target, eps, majorize=True)
+    assert mm.value == gn.value
+    np.testing.assert_array_equal(mm.gradient, gn.gradient)
+    r = tool - target
+    assert r @ gn.hessian[:3, :3] @ r < 0.01 * (r @ mm.hessian[:3, :3] @ r)  # GN: ~flat along r
+    for step in RNG.standard_normal((50, 6)) * 0.1:
+        moved = grasp_distance(tool + step[:3], np.eye(3), target + step[3:], eps).value
+        model = mm.value + mm.gradient @ step + 0.5 * step @ mm.hessian @ step
+        assert moved <= model + 1e-12

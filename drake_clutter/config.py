@@ -300,6 +300,12 @@ class PhysicsConfig:
     # Measured ("passes"): fig6 worse, fig8 the same kinematic failure (README)
     w_static: float = 1e3  # Table II
     w_acc: float = 1e-3  # Table II
+    step_smoothing: float = 0.0  # ours, 0 = off: this multiple of c_acc's unweighted Hessian
+    # is added to the phi stages' quadratic model only (not to the objective): a metric in
+    # which steps that zig-zag between knots are long and smooth ones short, so iLQR's steps
+    # stay smooth in time. Why: the alpha-0 phi stages left knot-to-knot jitter (joint second
+    # differences up to 0.16-0.36 rad against the baseline's 0.002-0.013) that c_acc at 1e-3
+    # prices at 0.001-0.05 (measured)
     w_static_deep: float = 0.0  # ours: weight of c_static's steep part in the phi stages,
     # 1/2 (depth beyond static_depth)^2 per arm-shelf pair and knot (phi's arm passes through
     # the shelf, and the phi stages left it 1-3 cm deep in the board on fig8, measured); 0: off

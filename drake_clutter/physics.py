@@ -461,6 +461,7 @@ def check_config(config: Config) -> None:
               ("w_speed", cfg.w_speed >= 0, "non-negative"),
               ("approach_knots", cfg.approach_knots >= 0, "at least 0"),
               ("min_step", cfg.min_step >= 0, "non-negative (0 = off)"),
+              ("step_smoothing", cfg.step_smoothing >= 0, "non-negative (0 = off)"),
               ("w_approach", cfg.w_approach >= 0, "non-negative"),
               ("w_approach_axis", cfg.w_approach_axis >= 0, "non-negative"),
               ("speed_fraction", cfg.speed_fraction > 0, "positive"),

@@ -341,13 +341,17 @@ class PhysicsObjective:
         return {"approach": line.scaled(cfg.w_approach),
                 "approach_axis": axis.scaled(cfg.w_approach_axis)}
 
-    def acc_term(self, z: np.ndarray, u: np.ndarray) -> Term:
+    def acc_term(self, z: np.ndarray, u: np.ndarray, metric: float = 0.0) -> Term:
         """Weighted c_acc + w_speed c_speed over (dz, du) (nz + 8,) of the interval from z
-        with control u."""
+        with control u; with ``metric`` > 0, that multiple of c_acc's (unweighted) Hessian is
+        added to the Hessian alone (`PhysicsConfig.step_smoothing`)."""
         term = costs.acceleration(z[self.nx:], z[:ARM_DIM], u, self.knot_time)
         cols = (list(range(self.ndx, self.nz)) + list(range(ARM_DIM))
                 + list(range(self.nz, self.nz + ARM_DIM)))
         acc = _embed(term, cols, self.nz + ARM_DIM).scaled(self.config.w_acc)
+        if metric > 0.0:
+            smooth = _embed(term, cols, self.nz + ARM_DIM).hessian
+            acc = Term(acc.value, acc.gradient, acc.hessian + metric * smooth)
         speed = speed_limit(z[:ARM_DIM], u, self._max_step)
         speed = _embed(speed, list(range(ARM_DIM)) + cols[2 * ARM_DIM:], self.nz + ARM_DIM)
         return _add(acc, speed, self.config.w_speed)
@@ -396,7 +400,7 @@ class PhysicsObjective:
         lxx, luu, lux = np.zeros((T, nz, nz)), np.zeros((T, nu, nu)), np.zeros((T, nu, nz))
         vx, vxx = np.zeros(nz), np.zeros((nz, nz))
         for t in range(T):
-            acc = self.acc_term(zs[t], us[t])
+            acc = self.acc_term(zs[t], us[t], self.config.step_smoothing)
             lx[t] += acc.gradient[:nz]
             lu[t] += acc.gradient[nz:]
             lxx[t] += acc.hessian[:nz, :nz]

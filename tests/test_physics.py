@@ -317,6 +317,31 @@ def test_acc_term_matches_differences(physics_problem):
     np.testing.assert_allclose(term.gradient, numeric, rtol=1e-5, atol=1e-3)
 
 
+def test_step_smoothing_adds_curvature_to_zigzags_only(physics_problem):
+    problem, layout, z = physics_problem
+    base, smoothing = (PhysicsObjective(problem.geometry, layout,
+                                        replace(problem.config, step_smoothing=w),
+                                        z[:layout.nx], "target", knot_time=0.2, d_safe=0.02)
+                       for w in (0.0, 2.0))
+    zs, us = np.array([z, z, z]), np.array([z[:8], z[:8] + 0.01])
+    plain, smooth = base.quadratize(zs, us), smoothing.quadratize(zs, us)
+    assert smoothing.terms(zs, us) == base.terms(zs, us)  # the objective is unchanged
+    for name in ("lx", "lu", "vx", "vxx"):
+        np.testing.assert_array_equal(getattr(smooth, name), getattr(plain, name))
+    n = base.nz
+    extra = np.zeros((n + 8, n + 8))
+    extra[:n, :n], extra[n:, n:] = (smooth.lxx - plain.lxx)[1], (smooth.luu - plain.luu)[1]
+    extra[n:, :n] = (smooth.lux - plain.lux)[1]
+    extra[:n, n:] = extra[n:, :n].T
+    arm, prev, ctrl = np.arange(8), np.arange(base.ndx, n), np.arange(n, n + 8)
+    steady = np.zeros(n + 8)  # the same step at q^(t-1), q^t and q^(t+1): no curvature
+    steady[arm] = steady[prev] = steady[ctrl] = 1.0
+    zigzag = np.zeros(n + 8)  # q^t moved against its neighbours
+    zigzag[arm], zigzag[prev], zigzag[ctrl] = 1.0, -1.0, -1.0
+    assert steady @ extra @ steady == pytest.approx(0.0, abs=1e-9)
+    assert zigzag @ extra @ zigzag == pytest.approx(2.0 * 8 * 16 / 0.2**2)
+
+
 def test_speed_limit_term_matches_differences():
     from drake_clutter.physics_costs import max_steps, speed_limit
 

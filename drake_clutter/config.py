@@ -434,7 +434,9 @@ class PhysicsConfig:
     # in contact), and a stage that ends on failed line searches spends 3 x 6 rollouts on
     # them. Measured on the four behaviour scenes at alpha 0 (2026-11-24): the same Bullet
     # outcome on all four (fig7 and fig8 the same plan within 2e-4 rad); full stages 92-254 s
-    # instead of 158-746 s (two plans sharing the 2 cores against three; README)
+    # instead of 158-746 s (two plans sharing the 2 cores against three); at alpha +-0.21
+    # no plan graded worse than without it and one better (fig5 +0.21), 99-415 s a plan
+    # instead of 254-730 s (README)
 
 
 @dataclass(frozen=True)

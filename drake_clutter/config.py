@@ -427,6 +427,9 @@ class PhysicsConfig:
     # (measured); 1 leaves resting and sliding boxes (radius 1) as they are; 1e9: no cap
     open_loop_fallback: bool = True  # phi stages retry a failed line search with K = 0; ours:
     # the feedback amplifies the finite-difference errors of A in contact (issue 6)
+    feedback: bool = True  # phi stages' forward passes feed back K (x - x_bar); ours. False:
+    # open loop always (K = 0: the box states' chaotic deviations in contact do not move the
+    # arm; the plan's feedback gains are still computed and saved)
     min_step: float = 1e-3  # rad (m for the opening): a phi stage stops after an accepted
     # step that moved no control by this much (1 mrad: < 1 mm at the gripper); ours, 0 = off.
     # Why: late in the phi stages the line search accepts step sizes 1e-4..1e-7 at mu

@@ -108,6 +108,8 @@ class ILQRSettings:
     open_loop_fallback: bool = False  # when the closed-loop line search fails, try the same
     # step sizes with K = 0 before raising the regulariser (for inexact A: K (x - x_bar)
     # amplifies its errors)
+    feedback: bool = True  # the forward pass feeds back K (x - x_bar); False: open loop
+    # (K = 0) always, for dynamics whose state deviations are chaotic
     min_step: float = 0.0  # stop ("small_step") after an accepted step that changed no
     # control by more than this (its largest |u - u_bar|); 0: no such rule
 
@@ -346,6 +348,8 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
     dict) receives the accepted alpha, the actual decrease and the forward passes tried."""
     entry = entry if entry is not None else {}
     gains = [K, np.zeros_like(K)] if settings.open_loop_fallback else [K]
+    if not settings.feedback:
+        gains = [np.zeros_like(K)]
     for gain in gains:
         alpha = alpha0
         for _ in range(settings.line_search_steps):

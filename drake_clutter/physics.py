@@ -249,6 +249,7 @@ def _settings(config: Config, iterations: int, knot_time: float | None = None
     limit = cfg.step_limit_fraction * max_steps(cfg, knot_time)
     return replace(settings, open_loop_fallback=cfg.open_loop_fallback, cost_floor=0.0,
                    max_failed_searches=cfg.max_failed_searches, min_step=cfg.min_step,
+                   feedback=cfg.feedback,
                    step_limit=tuple(float(v) for v in limit))
 
 

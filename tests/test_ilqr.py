@@ -287,6 +287,18 @@ def test_open_loop_fallback_makes_progress_with_a_wrong_state_jacobian():
     assert fallback.cost >= optimum - 1e-9
 
 
+def test_without_feedback_every_step_is_open_loop_and_the_cost_still_falls():
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=3)
+    cost = QuadraticCost(Q, R, Qf)
+    result = solve(LinearDynamics(A, B), cost, x0, np.zeros((T, 2)),
+                   ILQRSettings(max_iterations=5, feedback=False))
+    accepted = [e for e in result.log if e.get("actual", 0.0) > 0]
+    assert accepted and all(e["open_loop"] for e in accepted)
+    assert np.all(np.diff(result.cost_history) < 0)
+    closed = solve(LinearDynamics(A, B), cost, x0, np.zeros((T, 2)), ILQRSettings(max_iterations=1))
+    assert closed.cost < result.cost  # LQR's k assumes its K: open loop is not one Newton step
+
+
 def test_adaptive_step_starts_near_the_last_accepted_step():
     settings = ILQRSettings(max_iterations=40, adaptive_step=True)
     result = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)

@@ -356,11 +356,13 @@ class PhysicsConfig:
     # of 3 (README)
     grasp_smoothing: float = 0.005  # m, c_grasp = sqrt(d^2 + eps^2) - eps; ours: smooth
     # below 5 mm, the paper's distance beyond
-    distance_curvature: Literal["gauss_newton", "majorizer"] = "gauss_newton"  # Hessian of
+    distance_curvature: Literal["gauss_newton", "majorizer"] = "majorizer"  # Hessian of
     # the phi stages' distance-like terms (c_grasp, c_upright); ours. "gauss_newton": none
     # along c_grasp's own direction and ~eps^2/theta^3 for a tilted box, so the quadratic
     # model predicts decreases beyond the whole objective until the regulariser reaches
-    # 1e3-1e7 (measured); "majorizer": grad grad' / value, the quadratic above the term
+    # 1e3-1e7 (measured); "majorizer": grad grad' / value, the quadratic above the term.
+    # Measured at alpha 0 (2026-11-24, with min_step): fig5 partial success, fig6 the same,
+    # fig7 and fig8 fewer boxes disturbed than the baseline - Sec. VI-A's test met (README)
     approach_knots: int = 0  # ours (not in Table I): the last knots (Delta included) on which
     # c_approach and c_approach_axis hold the gripper on the candidate's straight approach: the
     # tool frame on the line through the target's centre along the baseline's final approach

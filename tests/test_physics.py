@@ -641,15 +641,6 @@ def _grade(outcome) -> tuple[int, int]:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 6 open: at alpha = 0 the baseline fails in Bullet on all four scenes; the physics "
-    "plan is worse on fig5 (failure to grasp with 2 tipped vs 1), the same on fig6 (failure "
-    "to grasp, 3 tipped), better on fig7 (failure to grasp, only the target tipped, vs 3 "
-    "tipped + 2 fell) and fails kinematically on fig8 (the wrist roll lags 0.028 rad at "
-    "5.28 s) - README, measured 2026-11-24 with speed_fraction 0.25, 40 post-processing "
-    "iterations, sweep_spacing 1 cm, and again with min_step 1 mrad (the same outcomes). "
-    "strict: an unexpected pass fails the run, so this mark must go when the behaviours are "
-    "reached."))
 def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():
     """Sec. VI-A: from the same angle (the scene's provenance alpha), the physics plan does at
     least as well as the baseline in Bullet on all four scenes, strictly better on three."""

@@ -413,6 +413,9 @@ class PhysicsConfig:
     # each try is a rollout (through phi, or 2 x 29 distance queries); with adaptive_step the
     # search starts near the last accepted size, so 6 halvings (a factor 32) suffice; at 10
     # the fig6 pre-processing spent 60 rollouts failing before its first step (measured)
+    parallel_line_search: bool = True  # phi stages roll out dynamics.workers step sizes at
+    # once in the derivative workers (the first that lowers the objective is still the one
+    # taken: the same plan as one after another); ours
     adaptive_step: bool = True  # start each line search at twice the last accepted step; ours:
     # on fig5 the phi stage's full step failed at every iteration (accepted 1/32..1/128 with
     # 5-10 failed rollouts before each, measured)

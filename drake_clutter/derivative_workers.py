@@ -32,13 +32,17 @@ def _worker_phi(key: str, spec: PhiSpec, autodiff: bool = False):
 
 def _run_task(task):
     """Worker entry point: ('trace', key, spec, x, u), ('groups', key, spec, x, u, nominal,
-    groups, step, scheme) or ('autodiff', key, spec, x, u, groups)."""
+    groups, step, scheme), ('autodiff', key, spec, x, u, groups) or ('call', key, spec,
+    function, args): function(this worker's Phi of spec, *args), a module-level function."""
     kind, key, spec, *args = task
     if kind == "autodiff":
         return group_autodiff(_worker_phi(key, spec, autodiff=True), *args)
     phi = _worker_phi(key, spec)
     if kind == "trace":
         return phi.step_full(*args)
+    if kind == "call":
+        function, call_args = args
+        return function(phi, *call_args)
     return group_differences(phi, *args)
 
 

@@ -187,6 +187,12 @@ class PhiDynamics:
         self._steps.move_to_end(key)
         return hit
 
+    def remember_steps(self, records) -> None:
+        """Takes in steps run elsewhere, ((x, u), `Phi.step_full` result) pairs from another
+        process's Phi of this spec, as if stepped here (for the forces and `linearize`)."""
+        for (x, u), result in records:
+            self._remember(self._key(x, u), result)
+
     def _remember(self, key, result) -> tuple[np.ndarray, set, np.ndarray]:
         self._steps[key] = result
         while len(self._steps) > self.config.step_cache_size:

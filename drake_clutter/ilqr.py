@@ -35,6 +35,12 @@ the iteration cap, a relative decrease below ``tolerance``, the regulariser exce
 ``reg_max``, ``max_failed_searches`` failed line searches in one iteration, or an accepted
 step that moved no control by ``min_step`` or more (on a chaotic rollout, a decrease from a
 step that small is noise to exploit, not progress).
+
+Parallel line search: dynamics that can run several forward passes at once (elsewhere: worker
+processes) say how many with ``parallel_passes`` (an int, > 1) and run them in
+``forward_passes(xs, us, k, K, alphas, lo, hi, limit)``, a list of (xs, us) per step size with
+their own state difference; the line search then rolls out that many step sizes per batch and
+still accepts the first (largest) that lowers the objective, so the result is the serial one.
 """
 
 from __future__ import annotations
@@ -131,7 +137,8 @@ class ILQRResult:
     log: list[dict] = field(default_factory=list)  # one entry per backward pass: regulariser
     # mu, the model's predicted decrease at the full step, the accepted step size alpha (0:
     # none), the actual decrease, whether the step was open loop, forward passes tried, and
-    # the non-finite derivative entries zeroed
+    # the non-finite derivative entries zeroed; "passes": forward passes run (more than
+    # "tries" when a parallel batch ran step sizes after the accepted one)
 
     @property
     def converged(self) -> bool:
@@ -287,7 +294,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                 continue
             k, K, (d1, d2) = bp
             entry = {"mu": mu, "expected": -(d1 + d2), "alpha": 0.0, "actual": 0.0,
-                     "open_loop": False, "tries": 0, "nonfinite": nonfinite}
+                     "open_loop": False, "tries": 0, "passes": 0, "nonfinite": nonfinite}
             log.append(entry)
             if -(d1 + d2) < settings.tolerance * max(abs(total), 1e-12):
                 break  # the model predicts no worthwhile decrease: a stationary point
@@ -350,13 +357,18 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
     gains = [K, np.zeros_like(K)] if settings.open_loop_fallback else [K]
     if not settings.feedback:
         gains = [np.zeros_like(K)]
+    batch = max(1, int(getattr(dynamics, "parallel_passes", 1)))
     for gain in gains:
-        alpha = alpha0
-        for _ in range(settings.line_search_steps):
-            entry["tries"] = entry.get("tries", 0) + 1
-            new_xs, new_us = forward_pass(dynamics, xs, us, k, gain, alpha, lo, hi, difference,
-                                          limit)
-            if np.all(np.isfinite(new_xs)):
+        alphas = [alpha0 * 0.5 ** i for i in range(settings.line_search_steps)]
+        for start in range(0, len(alphas), batch):
+            chunk = alphas[start:start + batch]
+            passes = _forward_passes(dynamics, xs, us, k, gain, chunk, lo, hi, difference,
+                                     limit)
+            entry["passes"] = entry.get("passes", 0) + len(chunk)
+            for alpha, (new_xs, new_us) in zip(chunk, passes, strict=True):
+                entry["tries"] = entry.get("tries", 0) + 1
+                if not np.all(np.isfinite(new_xs)):
+                    continue
                 terms = cost.terms(new_xs, new_us)
                 new_total = float(sum(terms.values()))
                 if new_total < total:
@@ -364,5 +376,12 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
                                  open_loop=gain is not K,
                                  step=float(np.max(np.abs(new_us - us), initial=0.0)))
                     return new_xs, new_us, terms, new_total
-            alpha *= 0.5
     return None
+
+
+def _forward_passes(dynamics, xs, us, k, K, alphas, lo, hi, difference, limit) -> list:
+    """(xs, us) of the forward passes at ``alphas``: at once through the dynamics'
+    ``forward_passes`` when it has more than one to run, else one after another."""
+    if len(alphas) > 1 and hasattr(dynamics, "forward_passes"):
+        return dynamics.forward_passes(xs, us, k, K, alphas, lo, hi, limit)
+    return [forward_pass(dynamics, xs, us, k, K, a, lo, hi, difference, limit) for a in alphas]

@@ -93,12 +93,36 @@ class KinematicArm:
 class AugmentedPhi:
     """phi with the previous arm configuration appended: z = [x, q^(t-1)], tangent dz =
     [dx, dq^(t-1)]; ``linearize`` returns tangent Jacobians, ``difference`` the tangent
-    difference (both for `ilqr.solve`)."""
+    difference (both for `ilqr.solve`). With ``parallel`` and a worker pool in ``dynamics``
+    the line search's forward passes run in the workers (`forward_passes`), each followed by
+    ``tail_knots`` knots of the held arm (`HoldTail`'s rollout) so the objective finds them."""
 
-    def __init__(self, dynamics: PhiDynamics, max_spectral_radius: float = float("inf")):
+    def __init__(self, dynamics: PhiDynamics, max_spectral_radius: float = float("inf"),
+                 parallel: bool = False, tail_knots: int = 0):
         self.dynamics, self.layout = dynamics, dynamics.layout
         self.nx, self.ndx = self.layout.nx, self.layout.ndx
         self.max_spectral_radius = max_spectral_radius
+        self.parallel, self.tail_knots = parallel, tail_knots
+
+    @property
+    def parallel_passes(self) -> int:
+        """Forward passes `forward_passes` runs at once (`ilqr`'s parallel line search)."""
+        pool = getattr(self.dynamics, "pool", None)
+        return pool.workers if self.parallel and pool is not None else 1
+
+    def forward_passes(self, zs, us, k, K, alphas, lo, hi, limit) -> list:
+        """`ilqr.forward_pass` (with this state difference) at each step size in ``alphas``,
+        at once in the dynamics' workers: [(zs, us)]. Their phi steps, the held-arm tails
+        included, are remembered by the dynamics as if stepped here."""
+        spec = self.dynamics.spec
+        tasks = [("call", spec.key, spec, _policy_pass,
+                  (zs, us, k, K, alpha, lo, hi, limit, self.tail_knots)) for alpha in alphas]
+        out = []
+        for new_zs, new_us, records, failures in self.dynamics.pool.map(tasks):
+            self.dynamics.remember_steps(records)
+            self.dynamics.phi.failures += failures
+            out.append((new_zs, new_us))
+        return out
 
     def step(self, t: int, z: np.ndarray, u: np.ndarray) -> np.ndarray:
         """[phi(x, u), q^t]; all NaN when phi's result is not a state (non-finite, or a
@@ -124,6 +148,35 @@ class AugmentedPhi:
         """z_a (-) z_b in tangent coordinates."""
         return np.concatenate([self.layout.difference(z_a[:self.nx], z_b[:self.nx]),
                                z_a[self.nx:] - z_b[self.nx:]])
+
+
+class _RecordedPhi:
+    """A worker's `Phi` as the stepping half of `PhiDynamics` (``step(t, x, u)``,
+    ``layout``), keeping every step's (x, u) and `Phi.step_full` result."""
+
+    def __init__(self, phi):
+        self.phi, self.layout, self.records = phi, phi.layout, []
+
+    def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """phi(x, u), recorded (``t`` is unused: phi is time-invariant)."""
+        result = self.phi.step_full(x, u)
+        self.records.append(((np.array(x, dtype=float), np.array(u, dtype=float)), result))
+        return result[0].copy()
+
+
+def _policy_pass(phi, zs, us, k, K, alpha, lo, hi, limit, tail_knots: int):
+    """Run in a derivative worker (`AugmentedPhi.forward_passes`): the forward pass over this
+    worker's ``phi`` and, when it stayed finite, ``tail_knots`` knots with the arm held at its
+    end (`HoldTail.tail`). Returns (zs, us, the steps as ((x, u), result), phi failures)."""
+    recorded, failures = _RecordedPhi(phi), phi.failures
+    augmented = AugmentedPhi(recorded)
+    new_zs, new_us = ilqr.forward_pass(augmented, zs, us, k, K, alpha, lo, hi,
+                                       augmented.difference, limit)
+    if tail_knots and np.all(np.isfinite(new_zs)):
+        x, hold = new_zs[-1][:augmented.nx], np.array(new_zs[-1][:ARM_DIM], dtype=float)
+        for _ in range(tail_knots):
+            x = recorded.step(0, x, hold)
+    return new_zs, new_us, recorded.records, phi.failures - failures
 
 
 class HoldTail:
@@ -327,7 +380,8 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
                                      scene.target, knot_time, config.baseline.d_safe,
                                      force_exclude=held, static_geometry=static,
                                      forces=dynamics, approach=approach)
-        augmented = AugmentedPhi(dynamics, config.physics.max_spectral_radius)
+        augmented = AugmentedPhi(dynamics, config.physics.max_spectral_radius,
+                                 config.physics.parallel_line_search, config.physics.hold_knots)
         if config.physics.hold_knots > 0:
             objective = HoldTail(objective, dynamics, config.physics.hold_knots,
                                  config.physics.max_spectral_radius)
@@ -392,8 +446,10 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     cfg = config.physics
     q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
-    # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV).
-    approach = ArmGeometry(scene, "capsules").tool_axis(baseline_q[-1], 0)[0]
+    # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV);
+    # only c_approach reads it.
+    approach = (ArmGeometry(scene, "capsules").tool_axis(baseline_q[-1], 0)[0]
+                if cfg.approach_knots > 0 else None)
     tic = time.perf_counter()
     try:
         q, result = preprocess(scene, q, config)

@@ -384,3 +384,36 @@ def test_cost_floor_rejects_models_predicting_below_it_without_a_rollout():
     assert tried and all(e["expected"] <= result.cost_history[0] for e in tried)
     assert np.all(np.diff(result.cost_history) <= 0)
     assert result.cost < 0.05 * result.cost_history[0]
+
+
+class BatchedPendulum(Pendulum):
+    """Runs forward passes in batches of three (as worker processes would), recording them."""
+
+    parallel_passes = 3
+
+    def __init__(self):
+        self.batches = []
+
+    def forward_passes(self, xs, us, k, K, alphas, lo, hi, limit):
+        from drake_clutter.ilqr import forward_pass
+
+        self.batches.append(list(alphas))
+        return [forward_pass(self, xs, us, k, K, a, lo, hi, None, limit) for a in alphas]
+
+
+def test_a_parallel_line_search_takes_the_serial_steps():
+    """Batches of step sizes, accepting the first that lowers the objective: the same
+    iterates, step sizes and tries as one pass after another."""
+    settings = ILQRSettings(max_iterations=15, line_search_steps=8, adaptive_step=True)
+    serial = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)
+    dynamics = BatchedPendulum()
+    batched = solve(dynamics, SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)
+    np.testing.assert_array_equal(batched.us, serial.us)
+    assert batched.cost_history == serial.cost_history
+    assert [(e["alpha"], e["tries"]) for e in batched.log] == \
+        [(e["alpha"], e["tries"]) for e in serial.log]
+    assert dynamics.batches and all(2 <= len(b) <= 3 for b in dynamics.batches)
+    for b in dynamics.batches:  # halving step sizes, largest first
+        assert all(s == 0.5 * a for a, s in zip(b, b[1:], strict=False))
+    assert sum(e["passes"] for e in batched.log) == sum(len(b) for b in dynamics.batches)
+    assert any(e["passes"] > e["tries"] for e in batched.log)  # a batch ran past the step taken

@@ -746,3 +746,27 @@ def test_hold_tail_pays_for_a_fall_after_delta_and_its_gradient_matches_differen
     assert np.linalg.norm(numeric) > 1.0
     assert np.linalg.norm(vx[:layout.ndx] - numeric) < 0.05 * np.linalg.norm(numeric), (
         vx[:layout.ndx], numeric)
+
+
+def test_parallel_line_search_gives_the_serial_phi_stage(scene, fig5_candidate):
+    """Forward passes in the derivative workers (`AugmentedPhi.forward_passes`) take the
+    steps the in-process line search takes: the same path, objective history and log."""
+    from drake_clutter.config import load_config
+    from drake_clutter.derivative_workers import WorkerPool
+    from drake_clutter.physics import physics_stage
+
+    q = fig5_candidate.trajectory.q
+    runs = {}
+    with WorkerPool(2) as pool:
+        for parallel in (False, True):
+            config = load_config(None, ["dynamics.derivative_stride=4",
+                                        f"physics.parallel_line_search={parallel}"])
+            runs[parallel] = physics_stage(scene, q, config, "capsules", 2, pool)
+    (q_serial, serial, _), (q_parallel, parallel, info) = runs[False], runs[True]
+    assert parallel.iterations >= 1 and info["phi_failures"] == 0
+    np.testing.assert_array_equal(q_parallel, q_serial)
+    assert parallel.cost_history == serial.cost_history
+    assert [(e["alpha"], e["tries"]) for e in parallel.log] == \
+        [(e["alpha"], e["tries"]) for e in serial.log]
+    assert all(e["passes"] == e["tries"] for e in serial.log)
+    assert sum(e["passes"] for e in parallel.log) > sum(e["tries"] for e in parallel.log)

@@ -42,7 +42,8 @@ k_t with the kept boxes' names (the state layout they refer to).
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from contextlib import contextmanager
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -344,18 +345,28 @@ def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
     return result.xs, result
 
 
-def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
-                  pool: WorkerPool | None = None, times: np.ndarray | None = None,
-                  alternatives: tuple[np.ndarray, ...] = (),
-                  approach: np.ndarray | None = None
-                  ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
-    """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
-    default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
-    stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
-    shape and start), iLQR starts from whichever of ``q`` and them has the lowest objective in
-    this stage's phi (pruned to ``q``); info's ``start_objectives`` lists them. ``approach``:
-    the final approach direction in W of c_approach (`PhysicsConfig.approach_knots`)."""
-    knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+@dataclass
+class StageProblem:
+    """What a phi stage optimises: phi (`PhiDynamics`, and as iLQR sees it), the objective
+    (with the hold tail), the start z0 = [x0, q^0] (boxes settled in phi), the pruning report
+    and the boxes held out of c_force."""
+
+    dynamics: PhiDynamics
+    augmented: AugmentedPhi
+    objective: PhysicsObjective | HoldTail
+    z0: np.ndarray
+    report: object
+    held: tuple[str, ...]
+
+
+@contextmanager
+def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
+                  pool: WorkerPool | None = None, knot_time: float | None = None,
+                  approach: np.ndarray | None = None):
+    """The `StageProblem` of a phi stage (``variant`` arm) about the knot path ``q`` (T + 1,
+    8; phi pruned to it), ``knot_time`` s apart (default ``baseline.knot_time``); its phi is
+    closed on leaving the ``with`` block. ``approach``: as in `physics_stage`."""
+    knot_time = knot_time or config.baseline.knot_time
     spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
                                     variant)
     held = (scene.target,) if variant == "sphere_gripper" else ()
@@ -374,18 +385,35 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
     # The sphere reaches 3 cm below the board at the pre-grasp height: c_static keeps the
     # capsule gripper in that stage.
     static = ArmGeometry(scene, "capsules") if variant == "sphere_gripper" else None
+    cfg = config.physics
     with PhiDynamics(spec, pool) as dynamics:
         x0 = dynamics.phi.settle(initial_state(layout, q[0], scene_box_states(scene)))
-        objective = PhysicsObjective(ArmGeometry(scene, variant), layout, config.physics, x0,
+        objective = PhysicsObjective(ArmGeometry(scene, variant), layout, cfg, x0,
                                      scene.target, knot_time, config.baseline.d_safe,
                                      force_exclude=held, static_geometry=static,
                                      forces=dynamics, approach=approach)
-        augmented = AugmentedPhi(dynamics, config.physics.max_spectral_radius,
-                                 config.physics.parallel_line_search, config.physics.hold_knots)
-        if config.physics.hold_knots > 0:
-            objective = HoldTail(objective, dynamics, config.physics.hold_knots,
-                                 config.physics.max_spectral_radius)
-        z0 = np.concatenate([x0, q[0]])
+        augmented = AugmentedPhi(dynamics, cfg.max_spectral_radius, cfg.parallel_line_search,
+                                 cfg.hold_knots)
+        if cfg.hold_knots > 0:
+            objective = HoldTail(objective, dynamics, cfg.hold_knots, cfg.max_spectral_radius)
+        yield StageProblem(dynamics, augmented, objective, np.concatenate([x0, q[0]]), report,
+                           held)
+
+
+def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
+                  pool: WorkerPool | None = None, times: np.ndarray | None = None,
+                  alternatives: tuple[np.ndarray, ...] = (),
+                  approach: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
+    """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
+    default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
+    stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
+    shape and start), iLQR starts from whichever of ``q`` and them has the lowest objective in
+    this stage's phi (pruned to ``q``); info's ``start_objectives`` lists them. ``approach``:
+    the final approach direction in W of c_approach (`PhysicsConfig.approach_knots`)."""
+    knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+    with stage_problem(scene, q, config, variant, pool, knot_time, approach) as problem:
+        augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
         starts = [q, *alternatives]
         values = [_path_objective(augmented, objective, z0, path) for path in starts]
         if not np.any(np.isfinite(values)):
@@ -394,9 +422,10 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
         result = ilqr.solve(augmented, objective, z0, q[1:],
                             _settings(config, iterations, knot_time),
                             difference=augmented.difference)
-        info = {"kept_boxes": list(layout.box_names), "pruning": report.summary(),
-                "phi_failures": dynamics.phi.failures,
-                "autodiff_fallbacks": dynamics.autodiff_fallbacks,
+        info = {"kept_boxes": list(augmented.layout.box_names),
+                "pruning": problem.report.summary(),
+                "phi_failures": problem.dynamics.phi.failures,
+                "autodiff_fallbacks": problem.dynamics.autodiff_fallbacks,
                 "start_objectives": [float(v) for v in values]}
     return np.vstack([q[:1], result.us]), result, info
 

@@ -6,7 +6,7 @@
 
 On the pre-processed baseline path of one scene (a shipped scene at its provenance angle, by
 default fig7_cascade, or the first usable of 3 angles of a generated one), builds the phi
-stage's problem (`physics.stage_problem`; ``--variant`` capsules = the full stage) and prints:
+stage's problem (`phi_stage.stage_problem`; ``--variant`` capsules = the full stage) and prints:
 
 1. Sensitivity: the objective's change dJ, and the largest change of any box state (rad, m,
    rad/s, m/s), when every arm control (rad; the gripper left alone) moves by eps along a
@@ -33,7 +33,8 @@ from drake_clutter.baseline import plan_baseline
 from drake_clutter.config import load_config
 from drake_clutter.derivative_workers import WorkerPool
 from drake_clutter.generators import generate_scene
-from drake_clutter.physics import _settings, preprocess, stage_problem
+from drake_clutter.phi_stage import stage_problem
+from drake_clutter.physics import preprocess, solver_settings
 
 EPSILONS = (1e-9, 1e-7, 1e-5, 1e-3)
 
@@ -78,7 +79,7 @@ def sensitivity(problem, us: np.ndarray, directions: int, seed: int) -> None:
 
 
 def model_check(problem, us: np.ndarray, config, knot_time: float) -> None:
-    settings = _settings(config, 1, knot_time)
+    settings = solver_settings(config, 1, knot_time)
     lo, hi = np.array(settings.u_min), np.array(settings.u_max)
     limit = np.asarray(settings.step_limit)
     augmented, cost = problem.augmented, problem.objective

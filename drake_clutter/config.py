@@ -339,7 +339,7 @@ class PhysicsConfig:
     # c_acc on every interval up to Delta ("t <= Delta"); c_force, c_motion, c_upright at
     # "all" times: every knot and the hold_knots after Delta; grasp/grp_horiz/grp_open at Delta.
     hold_knots: int = 5  # Table II's "all" past Delta: phi goes on this many knots with the arm
-    # held at q^Delta and their c_force/c_motion/c_upright count (physics.HoldTail); ours: 1 s
+    # held at q^Delta and their c_force/c_motion/c_upright count (phi_stage.HoldTail); ours: 1 s
     # (a domino toppled at the last knot falls in ~0.5 s). Without it the fig7 plan started the
     # cascade at t = 5 s, tilts 30-60 deg at Delta, and c_upright saw 5.8 (measured)
     w_speed: float = 1.0e4  # ours (not in Table II): weight of c_speed, the squared excess of
@@ -427,7 +427,7 @@ class PhysicsConfig:
     # iteration (mu x 10 after each); ours: the fig5 phi stage spent 8 failed searches (96
     # rollouts, most of its 854 s) before its regulariser went far enough (measured)
     max_spectral_radius: float = 1.0  # cap on the spectral radius of phi's box-to-box
-    # Jacobian per knot in the phi stages (physics.cap_spectral_radius); ours: toppling boxes
+    # Jacobian per knot in the phi stages (phi_stage.cap_spectral_radius); ours: toppling boxes
     # are locally unstable, and uncapped radii of 2-230 made fig8's costate reach 1e12
     # (measured); 1 leaves resting and sliding boxes (radius 1) as they are; 1e9: no cap
     open_loop_fallback: bool = True  # phi stages retry a failed line search with K = 0; ours:

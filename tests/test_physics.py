@@ -568,16 +568,16 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate):
 
 def test_phi_stages_get_the_trust_region_and_kinematic_ones_do_not():
     from drake_clutter.config import load_config
-    from drake_clutter.physics import _settings
+    from drake_clutter.physics import solver_settings
     from drake_clutter.physics_costs import max_steps
 
     config = load_config(None, ["physics.step_limit_fraction=0.25",
                                 "physics.line_search_steps=4"])
-    phi = _settings(config, 7, knot_time=0.2)
+    phi = solver_settings(config, 7, knot_time=0.2)
     np.testing.assert_allclose(phi.step_limit, 0.25 * max_steps(config.physics, 0.2))
     assert phi.line_search_steps == 4 and phi.adaptive_step and phi.open_loop_fallback
     assert phi.max_iterations == 7
-    kinematic = _settings(config, 7)
+    kinematic = solver_settings(config, 7)
     assert kinematic.step_limit is None and not kinematic.open_loop_fallback
 
 
@@ -685,7 +685,7 @@ def test_unstable_box_jacobians_are_capped_and_stable_ones_kept():
     """cap_spectral_radius scales a box-to-box block with radius 9 (a toppling box) down to the
     cap, leaves a resting/sliding box's (radius 1: p' = p + dt v) and the arm's columns as they
     are, and returns the radii it found."""
-    from drake_clutter.physics import cap_spectral_radius
+    from drake_clutter.phi_stage import cap_spectral_radius
 
     ndx = 8 + 12
     rng = np.random.default_rng(0)
@@ -713,7 +713,7 @@ def test_hold_tail_pays_for_a_fall_after_delta_and_its_gradient_matches_differen
     from drake_clutter.config import DynamicsConfig
     from drake_clutter.derivatives import PhiDynamics
     from drake_clutter.dynamics import make_spec
-    from drake_clutter.physics import HoldTail
+    from drake_clutter.phi_stage import HoldTail
 
     fig7 = scenes.load_shipped_scene("fig7_cascade")
     spec = make_spec(fig7, ["domino_4"], config=DynamicsConfig(workers=0))

@@ -116,10 +116,15 @@ def _policy_pass(phi, zs, us, k, K, alpha, lo, hi, limit, tail_knots: int):
     new_zs, new_us = ilqr.forward_pass(augmented, zs, us, k, K, alpha, lo, hi,
                                        augmented.difference, limit)
     if tail_knots and np.all(np.isfinite(new_zs)):
-        x, hold = new_zs[-1][:augmented.nx], np.array(new_zs[-1][:ARM_DIM], dtype=float)
-        for _ in range(tail_knots):
-            x = recorded.step(0, x, hold)
+        ilqr.rollout(recorded, new_zs[-1][:augmented.nx], _held(new_zs[-1], tail_knots)[1])
     return new_zs, new_us, recorded.records, phi.failures - failures
+
+
+def _held(z_last: np.ndarray, knots: int) -> tuple[np.ndarray, np.ndarray]:
+    """The tail's hold after the last knot z_last (its arm configuration, (8,)) and the tail's
+    controls, that hold repeated (knots, 8)."""
+    hold = np.array(z_last[:ARM_DIM], dtype=float)
+    return hold, np.tile(hold, (knots, 1))
 
 
 class HoldTail:
@@ -141,8 +146,8 @@ class HoldTail:
 
     def tail(self, z_last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """States y_0..y_K (K + 1, nx) of the held arm after z_last, and the hold (8,)."""
-        hold = np.array(z_last[:ARM_DIM], dtype=float)
-        return self.dynamics.rollout(z_last[:self.nx], np.tile(hold, (self.knots, 1))), hold
+        hold, holds = _held(z_last, self.knots)
+        return self.dynamics.rollout(z_last[:self.nx], holds), hold
 
     def _knot_terms(self, y: np.ndarray, hold: np.ndarray) -> dict:
         """Weighted terms (over dz) at a tail state: those of every knot but c_static."""

@@ -144,10 +144,11 @@ class HoldTail:
         self.max_spectral_radius = max_spectral_radius
         self.nx, self.ndx = dynamics.layout.nx, dynamics.layout.ndx
 
-    def tail(self, z_last: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """States y_0..y_K (K + 1, nx) of the held arm after z_last, and the hold (8,)."""
+    def tail(self, z_last: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """States y_0..y_K (K + 1, nx) of the held arm after z_last, the hold (8,) and the
+        tail's controls (K, 8)."""
         hold, holds = _held(z_last, self.knots)
-        return self.dynamics.rollout(z_last[:self.nx], holds), hold
+        return self.dynamics.rollout(z_last[:self.nx], holds), hold, holds
 
     def _knot_terms(self, y: np.ndarray, hold: np.ndarray) -> dict:
         """Weighted terms (over dz) at a tail state: those of every knot but c_static."""
@@ -158,14 +159,13 @@ class HoldTail:
     def terms(self, zs: np.ndarray, us: np.ndarray) -> dict[str, float]:
         """The objective's terms with the tail's added to c_motion, c_upright, c_force."""
         out = self.objective.terms(zs, us)
-        ys, hold = self.tail(zs[-1])
+        ys, hold, holds = self.tail(zs[-1])
         if not np.all(np.isfinite(ys)):
             return {**out, "hold": float("inf")}
         for y in ys[1:]:
             for name, term in self._knot_terms(y, hold).items():
                 out[name] = out.get(name, 0.0) + term.value
         if self.objective.forces is not None:
-            holds = np.tile(hold, (self.knots, 1))
             for name, value in self.objective.phi_force_terms(ys[:-1], holds).items():
                 out[name] = out.get(name, 0.0) + value
         return out
@@ -173,10 +173,9 @@ class HoldTail:
     def quadratize(self, zs: np.ndarray, us: np.ndarray) -> ilqr.Expansion:
         """The objective's expansion with the tail's in vx, vxx over x_T's tangent dx."""
         exp = self.objective.quadratize(zs, us)  # first: it reuses phi's last linearisation
-        ys, hold = self.tail(zs[-1])
+        ys, hold, holds = self.tail(zs[-1])
         if not np.all(np.isfinite(ys)):
             return exp
-        holds = np.tile(hold, (self.knots, 1))
         A, B = map(np.nan_to_num, self.dynamics.linearize_tangent(ys, holds))
         ndx = self.ndx
         A[:, :, :ARM_DIM] += B  # the hold is x_T's arm: du = dx_arm

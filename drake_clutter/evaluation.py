@@ -199,6 +199,26 @@ def classify(kinematic_failure: str, fallen: Sequence[str], grasp_reason: str,
     return "success", "grasped; every obstacle upright on the shelf"
 
 
+# Sec. VI-A's comparison of two plans from the same angle: the class, then the boxes disturbed.
+GRADE_CLASSES = {"success": 0, "partial_success": 1, "failure_to_grasp": 2, "objects_falling": 2,
+                 "kinematic_failure": 3, "planner_failure": 4}
+
+
+def behaviour_grade(kind: str, disturbed: int) -> tuple[int, int]:
+    """(class, disturbed boxes) of one plan's outcome; lower is better. Class 0 success, 1
+    partial success, 2 failure to grasp or objects falling, 3 kinematic failure, 4 no plan;
+    disturbed = boxes tipped or fallen. A kinematic failure stops the replay where it is found,
+    so its count of disturbed boxes is not comparable with a whole replay's: it ranks below."""
+    if kind not in GRADE_CLASSES:
+        raise ValueError(f"unknown outcome kind {kind!r}")
+    return GRADE_CLASSES[kind], int(disturbed)
+
+
+def outcome_grade(outcome: Outcome) -> tuple[int, int]:
+    """`behaviour_grade` of an evaluated outcome."""
+    return behaviour_grade(outcome.kind, sum(b.tipped or b.fallen for b in outcome.boxes))
+
+
 def scene_score(kinds: Iterable[str]) -> str:
     """Sec. VI-B: 'success' if any candidate succeeded, 'partial_success' if the best one is a
     partial success, else 'failure' (also for no candidates)."""

@@ -13,6 +13,11 @@ Definitions (Sec. VI-B), per (configuration, planner):
   optimisation failed, or the unit raised) are outside the distribution and counted apart.
 * Fig. 9a/9b: per environment, the percentage of scenes with score success (solid) and with
   success or partial success (dashed) against the number of objects, both planners.
+* Paired comparison (Sec. VI-A's grade, over many initializations): per configuration, each
+  physics row against the baseline row of the same scene, angle and configuration, by
+  `evaluation.behaviour_grade` (class, then boxes tipped or fallen): better / same / worse,
+  the kinematic failures of each, and a two-sided sign test on better against worse (ties
+  left out). One plan per scene is a draw on toppling clutter; this is the fair reading.
 * Fig. 9c: mean planning time per initialization (s) against the number of objects: for the
   physics planner, its stages (pre, phi stages, post) on units whose baseline candidate gave
   it an initialization; for the baseline, its whole planning time per angle (for reference).
@@ -28,7 +33,9 @@ import csv
 from collections import defaultdict
 from pathlib import Path
 
-from drake_clutter.evaluation import OUTCOME_KINDS, scene_score
+from scipy.stats import binomtest
+
+from drake_clutter.evaluation import OUTCOME_KINDS, behaviour_grade, scene_score
 
 ENVIRONMENTS = ("bookshelf", "fridge")
 ENV_LABELS = {"bookshelf": "Bookshelf", "fridge": "Refrigerator", "aggregate": "Aggregate"}
@@ -111,6 +118,52 @@ def table_iv(rows: list[dict]) -> list[dict]:
                         "paper_pct": PAPER_TABLE_IV.get(planner, {}).get(kind)})
         out.append({"configuration": config, "planner": planner, "outcome": "planner_failure",
                     "count": kinds.count("planner_failure"), "pct": None, "paper_pct": None})
+    return out
+
+
+def row_grade(row: dict) -> tuple[int, int]:
+    """`behaviour_grade` of a stored row (its kind and the boxes of its outcome)."""
+    boxes = (row.get("outcome") or {}).get("boxes", [])
+    return behaviour_grade(row["kind"], sum(bool(b.get("tipped") or b.get("fallen"))
+                                            for b in boxes))
+
+
+def paired_rows(rows: list[dict]) -> list[dict]:
+    """One row per physics unit that has a baseline unit of the same scene, angle and
+    configuration: both kinds, both grades and the verdict (better / same / worse)."""
+    base = {(r["config_name"], r["scene"], r["angle"]): r for r in rows
+            if r["planner"] == "baseline"}
+    out = []
+    for r in rows:
+        b = base.get((r["config_name"], r["scene"], r["angle"]))
+        if r["planner"] != "physics" or b is None:
+            continue
+        gp, gb = row_grade(r), row_grade(b)
+        out.append({"configuration": r["config_name"], "scene": r["scene"], "angle": r["angle"],
+                    "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
+                    "physics_grade": gp,
+                    "verdict": "better" if gp < gb else "same" if gp == gb else "worse"})
+    return out
+
+
+def paired_comparison(rows: list[dict]) -> list[dict]:
+    """Per configuration: pairs, better / same / worse, kinematic failures of each planner and
+    the two-sided sign test's p-value on better against worse (None when all tie)."""
+    by_config: dict[str, list[dict]] = {}
+    for p in paired_rows(rows):
+        by_config.setdefault(p["configuration"], []).append(p)
+    out = []
+    for config, pairs in by_config.items():
+        verdicts = [p["verdict"] for p in pairs]
+        better, worse = verdicts.count("better"), verdicts.count("worse")
+        out.append({"configuration": config, "pairs": len(pairs), "better": better,
+                    "same": verdicts.count("same"), "worse": worse,
+                    "physics_kinematic_failures": sum(p["physics"] == "kinematic_failure"
+                                                      for p in pairs),
+                    "baseline_kinematic_failures": sum(p["baseline"] == "kinematic_failure"
+                                                       for p in pairs),
+                    "sign_test_p": (binomtest(better, better + worse).pvalue
+                                    if better + worse else None)})
     return out
 
 
@@ -282,6 +335,18 @@ def markdown_fig9(data: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def markdown_paired(table: list[dict]) -> str:
+    """The paired comparison as Markdown."""
+    lines = ["| configuration | pairs | physics better | same | worse | kinematic failures "
+             "physics / baseline | sign test p |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in table:
+        p = "-" if r["sign_test_p"] is None else f"{r['sign_test_p']:.3f}"
+        lines.append(f"| {r['configuration']} | {r['pairs']} | {r['better']} | {r['same']} | "
+                     f"{r['worse']} | {r['physics_kinematic_failures']} / "
+                     f"{r['baseline_kinematic_failures']} | {p} |")
+    return "\n".join(lines)
+
+
 def _write_csv(path: Path, table: list[dict]) -> None:
     with path.open("w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(table[0]) if table else ["empty"])
@@ -290,20 +355,23 @@ def _write_csv(path: Path, table: list[dict]) -> None:
 
 
 def write_report(rows: list[dict], out_dir: str | Path, source: str = "") -> dict[str, Path]:
-    """Writes report.md, table3.{md,csv}, table4.{md,csv}, fig9.csv, fig9a/b/c.png and fig9.png
-    (the three panels together) into ``out_dir`` (created); returns the paths by name."""
+    """Writes report.md, table3.{md,csv}, table4.{md,csv}, fig9.csv, fig9a/b/c.png, fig9.png
+    (the three panels together) and paired.csv (physics against the baseline per
+    initialization) into ``out_dir`` (created); returns the paths by name."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t3, t4, f9 = table_iii(rows), table_iv(rows), fig9_data(rows)
     paths = {"table3.md": out / "table3.md", "table4.md": out / "table4.md",
              "table3.csv": out / "table3.csv", "table4.csv": out / "table4.csv",
-             "fig9.csv": out / "fig9.csv", "report.md": out / "report.md"}
+             "fig9.csv": out / "fig9.csv", "paired.csv": out / "paired.csv",
+             "report.md": out / "report.md"}
     md3, md4 = markdown_table_iii(t3), markdown_table_iv(t4)
     paths["table3.md"].write_text(md3 + "\n", encoding="utf-8")
     paths["table4.md"].write_text(md4 + "\n", encoding="utf-8")
     _write_csv(paths["table3.csv"], t3)
     _write_csv(paths["table4.csv"], t4)
     _write_csv(paths["fig9.csv"], f9)
+    _write_csv(paths["paired.csv"], paired_rows(rows))
     paths["fig9a.png"] = plot_success(f9, "bookshelf", out / "fig9a.png")
     paths["fig9b.png"] = plot_success(f9, "fridge", out / "fig9b.png")
     paths["fig9c.png"] = plot_time(f9, out / "fig9c.png")
@@ -318,7 +386,12 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "") -> dic
             f"{PAPER_TRAJECTORIES} per algorithm).", "", md4, "",
             "## Fig. 9: success and time per initialization against clutter", "",
             "![Fig. 9](fig9.png)", "",
-            markdown_fig9(f9), "", PAPER_FIG9_NOTE, ""]
+            markdown_fig9(f9), "", PAPER_FIG9_NOTE, "",
+            "## Physics against the baseline from the same initialization (Sec. VI-A's grade)",
+            "", "Each physics plan against the baseline plan of the same scene, angle and "
+            "configuration: the outcome class first (success, partial, failure to grasp or "
+            "objects falling, kinematic failure), then the boxes tipped or fallen. Per pair: "
+            "paired.csv.", "", markdown_paired(paired_comparison(rows)), ""]
     paths["report.md"].write_text("\n".join(text), encoding="utf-8")
     return paths
 

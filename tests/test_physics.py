@@ -630,16 +630,6 @@ def test_bad_physics_config_is_a_config_error(scene):
 BEHAVIOUR_SCENES = ("fig5_large_small", "fig6_push_sideways", "fig7_cascade", "fig8_snaking")
 
 
-def _grade(outcome) -> tuple[int, int]:
-    """(class, disturbed boxes): class 0 success, 1 partial success, 2 failure to grasp or
-    objects falling, 3 kinematic failure, 4 no plan; disturbed = boxes tipped or fallen. Lower
-    is better. A kinematic failure stops the replay where it is found, so its count of
-    disturbed boxes is not comparable with a whole replay's: it ranks below them."""
-    kind = {"success": 0, "partial_success": 1, "kinematic_failure": 3,
-            "planner_failure": 4}.get(outcome.kind, 2)
-    return kind, sum(b.tipped or b.fallen for b in outcome.boxes)
-
-
 @pytest.mark.slow
 @pytest.mark.xfail(strict=False, reason=(
     "issue 6 open: the outcome depends on the machine's floating-point bits. phi's objective "
@@ -653,7 +643,7 @@ def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():
     least as well as the baseline in Bullet on all four scenes, strictly better on three."""
     from drake_clutter.baseline import plan_baseline
     from drake_clutter.config import Config
-    from drake_clutter.evaluation import evaluate_candidates
+    from drake_clutter.evaluation import evaluate_candidates, outcome_grade
     from drake_clutter.physics import plan_physics
 
     config = Config()
@@ -665,10 +655,10 @@ def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():
         physics = plan_physics(scene, config, baseline)
         (base,), (phys,) = (evaluate_candidates(scene, c, config.evaluation)
                             for c in (baseline, physics))
-        rows.append(f"{name}: baseline {base.kind} {_grade(base)}, physics {phys.kind} "
-                    f"{_grade(phys)}")
-        worse += _grade(phys) > _grade(base)
-        better += _grade(phys) < _grade(base)
+        rows.append(f"{name}: baseline {base.kind} {outcome_grade(base)}, physics {phys.kind} "
+                    f"{outcome_grade(phys)}")
+        worse += outcome_grade(phys) > outcome_grade(base)
+        better += outcome_grade(phys) < outcome_grade(base)
     assert worse == 0 and better >= 3, "\n".join(rows)
 
 

@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 
 from drake_clutter.cli import main
-from drake_clutter.report import PAPER_TABLE_III, table_iii, table_iv
+from drake_clutter.report import (
+    PAPER_TABLE_III,
+    paired_comparison,
+    paired_rows,
+    table_iii,
+    table_iv,
+    write_report,
+)
 from drake_clutter.store import Store
 
 # (env, objects, seed) -> per planner, the outcome kinds of its angles.
@@ -108,3 +115,40 @@ def test_report_has_both_tables_and_four_figures(tmp_path, capsys):
         colours = np.unique(pixels.reshape(-1, 3).round(2), axis=0)
         assert len(colours) > 20  # lines, markers, text: not a blank canvas
         assert (pixels < 0.9).any(axis=-1).mean() > 0.01  # some ink on the page
+
+
+def test_paired_comparison_matches_physics_with_the_baseline_of_its_initialization(tmp_path):
+    rows = _fill(tmp_path / "r.db")
+    pairs = paired_rows(rows)
+    assert len(pairs) == 10  # every physics angle has its baseline angle
+    verdicts = {(p["scene"], p["angle"]): p["verdict"] for p in pairs}
+    assert verdicts[("bookshelf_n01_s0", 1)] == "better"  # success against failure to grasp
+    assert verdicts[("fridge_n02_s0", 1)] == "worse"  # kinematic failure against falling
+    assert verdicts[("fridge_n08_s0", 0)] == "same"  # neither planned
+    (summary,) = paired_comparison(rows)
+    assert (summary["pairs"], summary["better"], summary["same"], summary["worse"]) == (10, 4, 5, 1)
+    assert summary["physics_kinematic_failures"] == 1 == summary["baseline_kinematic_failures"]
+    assert summary["sign_test_p"] == pytest.approx(0.375)  # 4 of 5 untied pairs, two-sided
+    out = tmp_path / "report"
+    write_report(rows, out)
+    assert "| default | 10 | 4 | 5 | 1 | 1 / 1 | 0.375 |" in (out / "report.md").read_text()
+    with (out / "paired.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == 10
+
+
+def test_paired_grade_counts_disturbed_boxes_within_a_class():
+    def row(planner, kind, tipped, config="c"):
+        boxes = [{"tipped": i < tipped, "fallen": False} for i in range(4)]
+        return {"config_name": config, "scene": "s", "angle": 0, "planner": planner,
+                "kind": kind, "outcome": {"kind": kind, "boxes": boxes}}
+
+    def verdict(base, phys):
+        return paired_rows([row("baseline", *base), row("physics", *phys)])[0]["verdict"]
+
+    assert verdict(("objects_falling", 3), ("failure_to_grasp", 1)) == "better"
+    assert verdict(("failure_to_grasp", 1), ("failure_to_grasp", 1)) == "same"
+    assert verdict(("failure_to_grasp", 0), ("kinematic_failure", 0)) == "worse"
+    # A baseline of another configuration is not this physics row's initialization.
+    assert paired_rows([row("baseline", "success", 0, "a"), row("physics", "success", 0)]) == []
+    (summary,) = paired_comparison([row("baseline", "success", 0), row("physics", "success", 0)])
+    assert summary["same"] == 1 and summary["sign_test_p"] is None

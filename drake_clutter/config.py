@@ -423,15 +423,23 @@ class PhysicsConfig:
     # than this fraction of its per-knot speed-limit step (c_speed's max step) in one forward
     # pass, feedback included; ours: 5 unlimited iterations on fig5 raised c_static from 0 to
     # 45 (the arm pushed into the board) while trading c_force down (measured)
-    max_failed_searches: int = 3  # a stage stops after this many failed line searches in one
-    # iteration (mu x 10 after each); ours: the fig5 phi stage spent 8 failed searches (96
-    # rollouts, most of its 854 s) before its regulariser went far enough (measured)
+    max_failed_searches: int = 1  # a stage stops after this many failed line searches in one
+    # iteration (mu x 10 after each); ours. Measured (2026-11-24, the four behaviour scenes at
+    # angle indices 4-9, 24 initializations: `experiment run behaviours`, then `report`): with
+    # 3 searches and the open-loop fallback, 61 % of the phi stages' rollouts went into failed
+    # searches (most stages ended on three in a row); 1 and no fallback: physics against the
+    # baseline 7 better / 10 same / 7 worse (6 kinematic failures) against 5 / 10 / 9 (9),
+    # 1903 s of planning against 4215 s; bench_planner's 25-box initialization 174 s against
+    # 685 s, its phi objective down to 0.099 of its start against 0.029
     max_spectral_radius: float = 1.0  # cap on the spectral radius of phi's box-to-box
     # Jacobian per knot in the phi stages (phi_stage.cap_spectral_radius); ours: toppling boxes
     # are locally unstable, and uncapped radii of 2-230 made fig8's costate reach 1e12
     # (measured); 1 leaves resting and sliding boxes (radius 1) as they are; 1e9: no cap
-    open_loop_fallback: bool = True  # phi stages retry a failed line search with K = 0; ours:
-    # the feedback amplifies the finite-difference errors of A in contact (issue 6)
+    open_loop_fallback: bool = False  # phi stages retry a failed line search with K = 0;
+    # ours: the feedback amplifies the finite-difference errors of A in contact (issue 6); off
+    # since 2026-11-24 with max_failed_searches 1 (measured there: it doubled a failed search's
+    # rollouts; on the 25-box bench it kept the objective at 0.089 instead of 0.099 for 196 s
+    # instead of 174 s)
     feedback: bool = True  # phi stages' forward passes feed back K (x - x_bar); ours. False:
     # open loop always (K = 0: the box states' chaotic deviations in contact do not move the
     # arm; the plan's feedback gains are still computed and saved)

@@ -38,7 +38,7 @@ from typing import Literal
 from drake_clutter.config import Config, config_to_data, load_config
 from drake_clutter.typed_yaml import InputError, from_data, read_yaml_file
 
-TIERS = ("smoke", "small", "paper")
+TIERS = ("smoke", "small", "paper", "behaviours")
 TIER_PACKAGE = "drake_clutter.experiments_data"
 PLANNERS = ("baseline", "physics")
 DEAD_WORKER = "planner_failure"  # the outcome kind of a unit whose worker died or raised

@@ -59,6 +59,7 @@ def test_tiers_load_and_expand():
     assert counts["paper"] == 150 * 14 * 2
     assert counts["smoke"] == 4 * 2 * 2
     assert counts["smoke"] < counts["small"] < counts["paper"]
+    assert counts["behaviours"] == 4 * 6 * 2 * 2  # scenes x angles x planners x configurations
 
 
 def test_small_tier_covers_every_clutter_level():

@@ -572,7 +572,7 @@ def test_phi_stages_get_the_trust_region_and_kinematic_ones_do_not():
     from drake_clutter.physics_costs import max_steps
 
     config = load_config(None, ["physics.step_limit_fraction=0.25",
-                                "physics.line_search_steps=4"])
+                                "physics.line_search_steps=4", "physics.open_loop_fallback=true"])
     phi = solver_settings(config, 7, knot_time=0.2)
     np.testing.assert_allclose(phi.step_limit, 0.25 * max_steps(config.physics, 0.2))
     assert phi.line_search_steps == 4 and phi.adaptive_step and phi.open_loop_fallback

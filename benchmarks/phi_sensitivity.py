@@ -86,7 +86,7 @@ def model_check(problem, us: np.ndarray, config, knot_time: float) -> None:
     total, zs = objective(problem, us)
     A, B = augmented.linearize(zs, us)
     exp = cost.quadratize(zs, us)
-    ilqr._zero_nonfinite(A, B, *vars(exp).values())
+    ilqr.zero_nonfinite(A, B, *vars(exp).values())
     bp = ilqr.backward_pass(A, B, exp, settings.reg_init, us, lo, hi)
     if bp is None:
         print(f"Q_uu not positive definite at mu {settings.reg_init:g}")

@@ -282,7 +282,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
         tic = time.perf_counter()
         exp = cost.quadratize(xs, us)
         timings["quadratize"] += time.perf_counter() - tic
-        nonfinite = _zero_nonfinite(A, B, *vars(exp).values())
+        nonfinite = zero_nonfinite(A, B, *vars(exp).values())
         accepted, failed = False, 0
         while mu <= settings.reg_max and (settings.max_failed_searches is None
                                           or failed < settings.max_failed_searches):
@@ -335,7 +335,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                       timings=timings, log=log)
 
 
-def _zero_nonfinite(*arrays: np.ndarray) -> int:
+def zero_nonfinite(*arrays: np.ndarray) -> int:
     """Sets the non-finite entries of the derivative arrays to 0 in place (a failed
     finite-difference evaluation: no known effect), returning how many there were; without
     this a single NaN makes every Cholesky factorisation fail up to ``reg_max``."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drake_clutter.ilqr import Expansion, ILQRSettings, rollout, solve
+from drake_clutter.ilqr import Expansion, ILQRSettings, rollout, solve, zero_nonfinite
 
 
 class LinearDynamics:
@@ -417,3 +417,25 @@ def test_a_parallel_line_search_takes_the_serial_steps():
         assert all(s == 0.5 * a for a, s in zip(b, b[1:], strict=False))
     assert sum(e["passes"] for e in batched.log) == sum(len(b) for b in dynamics.batches)
     assert any(e["passes"] > e["tries"] for e in batched.log)  # a batch ran past the step taken
+
+
+class NaNJacobian(LinearDynamics):
+    """A linearisation with one failed (NaN) entry of B at knot 3."""
+
+    def linearize(self, xs, us):
+        A, B = super().linearize(xs, us)
+        B = B.copy()
+        B[3, 0, 1] = np.nan
+        return A, B
+
+
+def test_a_nan_derivative_entry_is_zeroed_counted_and_the_solve_still_descends():
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=4)
+    cost = QuadraticCost(Q, R, Qf)
+    result = solve(NaNJacobian(A, B), cost, x0, np.zeros((T, 2)),
+                   ILQRSettings(max_iterations=4))
+    assert [e["nonfinite"] for e in result.log][:1] == [1.0]
+    assert np.all(np.isfinite(result.us)) and result.cost < 0.5 * result.cost_history[0]
+    arrays = [np.array([1.0, np.inf]), np.array([[np.nan, 2.0]])]
+    assert zero_nonfinite(*arrays) == 2
+    assert arrays[0].tolist() == [1.0, 0.0] and arrays[1].tolist() == [[0.0, 2.0]]

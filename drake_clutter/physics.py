@@ -128,7 +128,8 @@ def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
     objective = KinematicObjective(
         geometry, config.physics, "pre", config.baseline.d_safe, scene.target,
         p_pregrasp=geometry.tool(q_init[-1])[0], w_static_hull=config.baseline.w_static_hull,
-        w_vel=config.baseline.w_vel)
+        w_vel=(config.baseline.w_vel if config.physics.pre_w_vel is None
+               else config.physics.pre_w_vel))
     result = ilqr.solve(KinematicArm(), objective, q_init[0], q_init[1:],
                         solver_settings(config, config.physics.pre_iterations))
     return result.xs, result
@@ -301,6 +302,8 @@ def check_config(config: Config) -> None:
               ("tolerance", cfg.tolerance >= 0, "non-negative"),
               ("line_search_steps", cfg.line_search_steps >= 1, "at least 1"),
               ("max_failed_searches", cfg.max_failed_searches >= 1, "at least 1"),
+              ("pre_w_vel", cfg.pre_w_vel is None or cfg.pre_w_vel >= 0,
+               "non-negative (or null: the baseline's w_vel)"),
               ("step_limit_fraction", cfg.step_limit_fraction > 0, "positive"),
               ("max_spectral_radius", cfg.max_spectral_radius > 0, "positive"),
               ("post_variant", cfg.post_variant in robot_model.VARIANTS,

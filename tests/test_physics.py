@@ -532,6 +532,23 @@ def test_preprocessing_keeps_the_pregrasp(scene, geometry, fig5_candidate):
     assert np.linalg.norm(geometry.tool(q[-1])[0] - geometry.tool(q0[-1])[0]) < 0.01
 
 
+def test_pre_w_vel_weights_the_preprocessings_c_vel(scene, geometry, fig5_candidate):
+    """physics.pre_w_vel replaces the baseline's w_vel in Sec. V-A only: a heavier c_vel leaves
+    a smoother path (smaller knot-to-knot second differences)."""
+    from drake_clutter.config import load_config
+    from drake_clutter.physics import preprocess
+
+    q0 = fig5_candidate.trajectory.q
+    runs = {w: preprocess(scene, q0, load_config(None, [f"physics.pre_w_vel={w}"]), geometry)
+            for w in (1.0, 100.0)}
+    kink = {w: np.abs(np.diff(q[:, :7], 2, axis=0)).max() for w, (q, _) in runs.items()}
+    assert kink[100.0] < 0.5 * kink[1.0]
+    assert runs[1.0][1].term_history[0]["vel"] * 100 == pytest.approx(
+        runs[100.0][1].term_history[0]["vel"])  # the same start, its c_vel weighted 100x
+    default, _ = preprocess(scene, q0, load_config(None, []), geometry)
+    np.testing.assert_array_equal(default, runs[1.0][0])  # None = the baseline's w_vel (1)
+
+
 def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate):
     from drake_clutter.config import load_config
     from drake_clutter.physics import control_bounds, plan_physics

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import multiprocessing
 from collections import OrderedDict
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 from drake_clutter.derivative_groups import group_autodiff, group_differences
 from drake_clutter.derivatives_autodiff import AutoDiffPhi
@@ -46,11 +48,18 @@ def _run_task(task):
     return group_differences(phi, *args)
 
 
+class WorkerDied(RuntimeError):
+    """A worker process ended abruptly (killed, out of memory, a crash inside Drake)."""
+
+
 class WorkerPool:
     """Spawned worker processes for phi evaluations; each builds a Phi once per spec.
 
     'spawn' (not fork): pydrake objects are not fork-safe. Start-up (Python + pydrake import)
     takes a second or two per worker and happens on first use; reuse one pool across specs.
+    A worker that dies mid-task raises `WorkerDied` (a RuntimeError: the physics planner
+    records the candidate as failed) instead of waiting forever, and the next call starts
+    fresh workers.
     """
 
     def __init__(self, workers: int):
@@ -59,25 +68,35 @@ class WorkerPool:
         self.workers = workers
         self._pool = None
 
-    def _started(self):
+    def _started(self) -> ProcessPoolExecutor:
         if self._pool is None:
-            self._pool = multiprocessing.get_context("spawn").Pool(self.workers)
+            self._pool = ProcessPoolExecutor(self.workers,
+                                             mp_context=multiprocessing.get_context("spawn"))
         return self._pool
+
+    def run(self, function, items: list) -> list:
+        """function(item) for every item in the workers (a picklable module-level function),
+        results in order."""
+        try:
+            return list(self._started().map(function, items, chunksize=1))
+        except BrokenProcessPool as exc:
+            self.close()
+            raise WorkerDied(f"a phi worker process died ({exc}); the pool is restarted on "
+                             "its next use") from exc
 
     def map(self, tasks: list) -> list:
         """Runs tasks (see `_run_task`) in the workers, results in task order."""
-        return self._started().map(_run_task, tasks, chunksize=1)
+        return self.run(_run_task, tasks)
 
     def warm_up(self, spec: PhiSpec) -> None:
         """Starts the workers and has them build ``spec``'s Phi (a timing convenience: a
         worker that takes none of these tasks builds it on first use)."""
-        self._started().map(_build_only, [(spec.key, spec)] * (2 * self.workers), chunksize=1)
+        self.run(_build_only, [(spec.key, spec)] * (2 * self.workers))
 
     def close(self) -> None:
         """Stops the workers."""
         if self._pool is not None:
-            self._pool.terminate()
-            self._pool.join()
+            self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
     def __enter__(self):

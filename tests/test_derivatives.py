@@ -165,6 +165,18 @@ def test_parallel_workers_give_the_serial_bits():
     np.testing.assert_array_equal(B, Bp)
 
 
+def test_a_dead_worker_raises_instead_of_hanging_and_the_pool_restarts():
+    import os
+
+    from drake_clutter.derivative_workers import WorkerDied
+
+    with WorkerPool(2) as pool:
+        assert pool.run(abs, [-1, 2, -3]) == [1, 2, 3]
+        with pytest.raises(WorkerDied, match="died"):
+            pool.run(os._exit, [1])  # the worker process ends mid-task, as if killed
+        assert pool.run(abs, [-4]) == [4]  # fresh workers on the next call
+
+
 # ----------------------------------------------------------------------------- AutoDiffXd
 
 

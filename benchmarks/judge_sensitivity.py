@@ -28,6 +28,7 @@ from drake_clutter import scenes
 from drake_clutter.config import load_config
 from drake_clutter.evaluation import evaluate, outcome_grade
 from drake_clutter.experiments import plan_one_angle
+from drake_clutter.report import verdict
 from drake_clutter.store import Store
 from drake_clutter.trajectory import Trajectory
 
@@ -74,10 +75,6 @@ def judge(plan: dict, args, config, cache: dict) -> dict:
                                                                args.seed + r), config.evaluation))
                        for r in range(args.replicas)]
     return grades
-
-
-def verdict(physics: tuple, baseline: tuple) -> str:
-    return "better" if physics < baseline else "same" if physics == baseline else "worse"
 
 
 def report(judged: list[tuple[dict, dict]], args) -> None:

@@ -128,6 +128,11 @@ def row_grade(row: dict) -> tuple[int, int]:
                                             for b in boxes))
 
 
+def verdict(physics: tuple[int, int], baseline: tuple[int, int]) -> str:
+    """'better', 'same' or 'worse': the physics plan's grade against the baseline's."""
+    return "better" if physics < baseline else "same" if physics == baseline else "worse"
+
+
 def paired_rows(rows: list[dict]) -> list[dict]:
     """One row per physics unit that has a baseline unit of the same scene, angle and
     configuration: both kinds, both grades and the verdict (better / same / worse)."""
@@ -141,8 +146,7 @@ def paired_rows(rows: list[dict]) -> list[dict]:
         gp, gb = row_grade(r), row_grade(b)
         out.append({"configuration": r["config_name"], "scene": r["scene"], "angle": r["angle"],
                     "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
-                    "physics_grade": gp,
-                    "verdict": "better" if gp < gb else "same" if gp == gb else "worse"})
+                    "physics_grade": gp, "verdict": verdict(gp, gb)})
     return out
 
 

@@ -17,6 +17,7 @@ from scipy.spatial.transform import Rotation
 from drake_clutter import costs, scenes
 from drake_clutter.config import PhysicsConfig
 from drake_clutter.dynamics import StateLayout, initial_state, pose_to_box_state, scene_box_states
+from drake_clutter.experiments import load_spec
 from drake_clutter.physics_costs import (
     KinematicObjective,
     PhysicsObjective,
@@ -644,7 +645,7 @@ def test_bad_physics_config_is_a_config_error(scene):
 
 # ----------------------------------------------------------------------------- behaviours
 
-BEHAVIOUR_SCENES = ("fig5_large_small", "fig6_push_sideways", "fig7_cascade", "fig8_snaking")
+BEHAVIOUR_SCENES = load_spec("behaviours")[0].shipped  # the experiment tier's four scenes
 
 
 @pytest.mark.slow

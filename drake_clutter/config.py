@@ -217,7 +217,13 @@ class DynamicsConfig:
     # ~1e-6 relative tolerance can make 1e-6 noisier (up to 2.5e-2 vs 1e-4 at 1e-5)
     fd_scheme: Literal["forward", "central"] = "forward"  # Sec. V uses forward differences
     prune_margin: float = 0.05  # m around the arm's swept volume; ours (Sec. I: affected boxes)
-    derivative_stride: int = 1  # compute A_t, B_t every k-th knot and interpolate; 1 = all
+    derivative_stride: int = 3  # compute A_t, B_t every k-th knot (and the last) and
+    # interpolate between; 1 = all; ours (Sec. V differentiates every knot). Measured
+    # (2026-11-24): `bench_planner --kind bookshelf --levels 25` 174 s -> 110 s per
+    # initialization (stride 6: 121 s), phi objective 0.099 -> 0.065 of its start (6: 0.053);
+    # on the behaviours tier (24 initializations, `report`'s paired comparison) 7 better / 9
+    # same / 8 worse against the baseline, kinematic failures 8 / 6 (stride 1: 7 / 10 / 7,
+    # 6 / 6), 1288 s of planning instead of 1903: the same within the tier's noise, 1.5x faster
     derivative_method: Literal["fd", "autodiff", "hybrid"] = "hybrid"  # how phi's Jacobians
     # are taken; ours (Sec. V uses finite differences): "fd" = one phi evaluation per colour
     # group; "autodiff" = one AutoDiffXd knot seeded with the colour groups (exact, and in
@@ -342,6 +348,13 @@ class PhysicsConfig:
     # held at q^Delta and their c_force/c_motion/c_upright count (phi_stage.HoldTail); ours: 1 s
     # (a domino toppled at the last knot falls in ~0.5 s). Without it the fig7 plan started the
     # cascade at t = 5 s, tilts 30-60 deg at Delta, and c_upright saw 5.8 (measured)
+    hold_derivative_stride: int | None = None  # derivative stride of the hold_knots' phi
+    # Jacobians (None: dynamics.derivative_stride); ours: the tail's gradient is a chain of its
+    # Jacobians, and with every 3rd knot interpolated it was 46 % off the numerical one on a
+    # toppling domino (tests/test_physics.py's hold-tail test: |error| 126 of 274). Not 1 by
+    # default: `bench_planner --kind bookshelf --levels 25` took 193 s with 1 (6 iterations,
+    # objective 0.036 of its start, 17 boxes kept by the last stage) against 113 s with 3
+    # (4 iterations, 0.065, 11 kept) (2026-11-24)
     w_speed: float = 1.0e4  # ours (not in Table II): weight of c_speed, the squared excess of
     # a joint's move per knot over speed_fraction x its PR2 speed limit, added to c_acc's
     # interval term (the evaluation rejects plans beyond the limits; at w_acc = 1e-3 alone the

@@ -213,35 +213,38 @@ class PhiDynamics:
             B[t] = G_next @ B_tan[t]
         return A, B
 
-    def linearize_tangent(self, xs: np.ndarray, us: np.ndarray):
+    def linearize_tangent(self, xs: np.ndarray, us: np.ndarray, stride: int | None = None):
         """A~ (T, ndx, ndx), B~ (T, ndx, nu) in tangent coordinates about (xs, us). The same
-        finite differences give the contact forces' Jacobians: `linearize_forces`."""
-        J = self._linearize_full(xs, us)
+        finite differences give the contact forces' Jacobians: `linearize_forces`. ``stride``
+        overrides ``config.derivative_stride`` (every k-th knot differentiated)."""
+        J = self._linearize_full(xs, us, stride)
         ndx = self.layout.ndx
         return J[:, :ndx, :ndx].copy(), J[:, :ndx, ndx:].copy()
 
-    def linearize_forces(self, xs: np.ndarray, us: np.ndarray):
+    def linearize_forces(self, xs: np.ndarray, us: np.ndarray, stride: int | None = None):
         """Contact forces and their Jacobians about (xs, us): f (T, nf), Fx (T, nf, ndx),
         Fu (T, nf, nu), nf = 1 + kept boxes. Row 0 is the arm's force, row i + 1 kept box i's
         (the layout of `step_forces`); columns are tangent coordinates of x_t and u_t, as in
         `linearize_tangent`. Free after `linearize_tangent` on the same (xs, us): both come
         from one set of finite differences (a row is differenced with the columns of its
         body's interaction component, so the colouring holds for it too)."""
-        J = self._linearize_full(xs, us)
+        J = self._linearize_full(xs, us, stride)
         ndx = self.layout.ndx
         f = np.array([self._traced(xs[t], us[t])[2] for t in range(len(J))])
         return f, J[:, ndx:, :ndx].copy(), J[:, ndx:, ndx:].copy()
 
-    def _linearize_full(self, xs: np.ndarray, us: np.ndarray) -> np.ndarray:
+    def _linearize_full(self, xs: np.ndarray, us: np.ndarray,
+                        stride: int | None = None) -> np.ndarray:
         """Jacobians (T, ndx + nf, ndx + nu) of phi's output [x', f] w.r.t. [dx, du]."""
         us = np.atleast_2d(np.asarray(us, dtype=float))
         xs = np.asarray(xs, dtype=float)
-        key = (xs[:len(us)].tobytes(), us.tobytes(), len(us))
+        stride = self.config.derivative_stride if stride is None else stride
+        key = (xs[:len(us)].tobytes(), us.tobytes(), len(us), stride)
         if self._last is not None and self._last[0] == key:
             return self._last[1]
         tic = time.perf_counter()
         T = len(us)
-        knots = differentiated_knots(T, self.config.derivative_stride)
+        knots = differentiated_knots(T, stride)
         self.stats = LinearizeStats(knots=T, differentiated_knots=len(knots))
         self._trace_missing(xs, us, range(T))
         pending: dict[tuple, list[tuple[np.ndarray, int]]] = {}

@@ -139,9 +139,10 @@ class HoldTail:
     ``ilqr.Cost`` protocol over the augmented state z = [x, q^(t-1)] of `AugmentedPhi`."""
 
     def __init__(self, objective: PhysicsObjective, dynamics: PhiDynamics, knots: int,
-                 max_spectral_radius: float = float("inf")):
+                 max_spectral_radius: float = float("inf"), stride: int | None = None):
         self.objective, self.dynamics, self.knots = objective, dynamics, knots
         self.max_spectral_radius = max_spectral_radius
+        self.stride = stride  # the tail's derivative stride (None: phi's)
         self.nx, self.ndx = dynamics.layout.nx, dynamics.layout.ndx
 
     def tail(self, z_last: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -176,7 +177,7 @@ class HoldTail:
         ys, hold, holds = self.tail(zs[-1])
         if not np.all(np.isfinite(ys)):
             return exp
-        A, B = map(np.nan_to_num, self.dynamics.linearize_tangent(ys, holds))
+        A, B = map(np.nan_to_num, self.dynamics.linearize_tangent(ys, holds, self.stride))
         ndx = self.ndx
         A[:, :, :ARM_DIM] += B  # the hold is x_T's arm: du = dx_arm
         cap_spectral_radius(A, self.max_spectral_radius)
@@ -185,7 +186,8 @@ class HoldTail:
         J = np.eye(ndx)  # d y_k / d x_T
         forces = self.objective.forces is not None
         if forces:
-            f, Fx, Fu = map(np.nan_to_num, self.dynamics.linearize_forces(ys, holds))
+            f, Fx, Fu = map(np.nan_to_num,
+                            self.dynamics.linearize_forces(ys, holds, self.stride))
             _, g, d = self.objective.force_cost(f)
         for k in range(self.knots):
             if forces:
@@ -273,6 +275,7 @@ def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
         augmented = AugmentedPhi(dynamics, cfg.max_spectral_radius, cfg.parallel_line_search,
                                  cfg.hold_knots)
         if cfg.hold_knots > 0:
-            objective = HoldTail(objective, dynamics, cfg.hold_knots, cfg.max_spectral_radius)
+            objective = HoldTail(objective, dynamics, cfg.hold_knots, cfg.max_spectral_radius,
+                                 cfg.hold_derivative_stride)
         yield StageProblem(dynamics, augmented, objective, np.concatenate([x0, q[0]]), report,
                            held)

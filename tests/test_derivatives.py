@@ -31,6 +31,7 @@ def _setup(num_boxes: int, seed: int, **config):
     scene = generate_scene("bookshelf", num_boxes, seed=seed)
     path = straight_reach(scene)
     assert path is not None
+    config = {"derivative_stride": 1, **config}  # every knot differentiated: exact Jacobians
     spec, report = make_pruned_spec(scene, path, config=DynamicsConfig(workers=0, **config))
     dynamics = PhiDynamics(spec)
     x0 = dynamics.phi.settle(initial_state(spec.layout, path[0], scene_box_states(scene)))
@@ -152,6 +153,13 @@ def test_stride_differentiates_fewer_knots(point10):
     for t in knots:
         assert _rel(A4[t], A1[t]) < 2e-3
     np.testing.assert_allclose(A4[1], 0.75 * A4[0] + 0.25 * A4[4])
+    # a call's stride overrides the configured one (the hold tail's), and is part of the cache key
+    As, _ = strided.linearize_tangent(xs, us, stride=1)
+    assert strided.stats.differentiated_knots == len(us)
+    assert max(_rel(As[t], A1[t]) for t in range(len(us))) < 2e-3  # known blocks reused
+    A4_again, _ = strided.linearize_tangent(xs, us)
+    assert strided.stats.differentiated_knots == len(knots)
+    assert max(_rel(A4_again[t], A4[t]) for t in knots) < 2e-3
 
 
 def test_parallel_workers_give_the_serial_bits():

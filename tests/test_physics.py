@@ -639,6 +639,8 @@ def test_bad_physics_config_is_a_config_error(scene):
         plan_physics(scene, load_config(None, ["physics.hull_substeps=0"]), [])
     with pytest.raises(ConfigError, match="physics.step_limit_fraction"):
         plan_physics(scene, load_config(None, ["physics.step_limit_fraction=0"]), [])
+    with pytest.raises(ConfigError, match="physics.hold_derivative_stride"):
+        plan_physics(scene, load_config(None, ["physics.hold_derivative_stride=0"]), [])
     with pytest.raises(ConfigError, match="dynamics.derivative_method"):
         plan_physics(scene, load_config(None, ["world.contact_approximation=similar"]), [])
 
@@ -730,7 +732,7 @@ def test_hold_tail_pays_for_a_fall_after_delta_and_its_gradient_matches_differen
     from drake_clutter.phi_stage import HoldTail
 
     fig7 = scenes.load_shipped_scene("fig7_cascade")
-    spec = make_spec(fig7, ["domino_4"], config=DynamicsConfig(workers=0))
+    spec = make_spec(fig7, ["domino_4"], config=DynamicsConfig(workers=0, derivative_stride=1))
     layout = spec.layout
     park = np.r_[spec.world.park_configuration, 0.0]
     states = scene_box_states(fig7)

@@ -7,8 +7,9 @@ into the shelf along +x and ``alpha > 0`` comes from the right (-y side) heading
 
 Sec. IV: the gripper is horizontal at a fixed height ``h`` above the board; it starts on a line
 ``l`` outside the shelf and ends in the pre-grasp pose, the target centred between the open
-fingers. Here the pre-grasp pose puts G at the target's centre (x, y) at height
-``board_top + h``, with G's x-axis along ``d(alpha)`` and its z-axis up (fingers across, y).
+fingers. Here the pre-grasp pose puts the pads' centre (``BaselineConfig.grasp_point``; G lies
+1.5 cm ahead of it) at the target's centre (x, y), G at height ``board_top + h``, with G's
+x-axis along ``d(alpha)`` and its z-axis up (fingers across, y).
 The start pose has the same orientation, on the ray from the target back along ``-d(alpha)``,
 where it crosses the line ``l``: ``x = front_x - (gripper reach ahead of G) - clearance``.
 
@@ -153,13 +154,20 @@ class ApproachPoses:
     X_WPregrasp: RigidTransform
 
 
+def grasp_offset(config: BaselineConfig) -> float:
+    """How far (m, along the approach x_G) G lies ahead of the gripper point that goes on the
+    target's centre (``config.grasp_point``): the pads' centre, or G itself (0)."""
+    return robot_model.PADS_BEHIND_TOOL if config.grasp_point == "pads" else 0.0
+
+
 def approach_poses(scene: Scene, alpha: float, config: BaselineConfig,
                    extent: GripperExtent) -> ApproachPoses:
     """Start and pre-grasp poses of G for approach angle ``alpha`` (see the module docstring)."""
     h = grasp_height(scene, config, extent)
     target = scene.target_box
-    p_WPre = np.array([target.pose[0], target.pose[1], scene.shelf.top_height + h])
     d = approach_direction(alpha)
+    p_WPre = (np.array([target.pose[0], target.pose[1], scene.shelf.top_height + h])
+              + grasp_offset(config) * d)
     x_line = scene.shelf.front_x - extent.ahead - config.d_safe - config.pose_clearance
     back = max(0.0, (p_WPre[0] - x_line) / d[0])
     R_WG = gripper_rotation(alpha)

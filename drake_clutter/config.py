@@ -134,6 +134,14 @@ class BaselineConfig:
     w_static_hull: float = 80.0  # Sec. IV: weight of c_static_hull
     w_vel: float = 1.0  # Sec. IV: weight of c_vel
     d_safe: float = 0.02  # m, penetration margin of the collision costs (Table I); ours
+    grasp_point: Literal["pads", "tool_frame"] = "pads"  # the gripper's point that the
+    # pre-grasp pose and the physics planner's c_grasp put on the target's centre. Sec. IV:
+    # "the target centred between the open fingers" = "pads" (the pads' centre, 1.5 cm behind
+    # the PR2 tool frame G); "tool_frame" = G itself (ours until 2026-11-24): the target then
+    # sat 1.5 cm from the front of the evaluation's pad zone (1.3 cm to spare), and 6 of the
+    # physics planner's 24 behaviour-tier plans failed to grasp with the target 0.3-2.6 cm
+    # ahead of that zone. Behaviours tier at "pads" (2026-11-24): paired 7/9/8 as at
+    # "tool_frame", kinematic failures physics 6 (was 8), baseline 4 (was 6)
     check_substeps: int = 10  # dense check samples per knot interval (issue 3)
     check_tolerance: float = 0.001  # m of penetration the dense check accepts (issue 3)
     # Approach poses (Sec. IV leaves them open; all ours).

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_clutter import ilqr
+from drake_clutter.approach import grasp_offset
 from drake_clutter.config import Config
 from drake_clutter.derivative_workers import WorkerPool
 from drake_clutter.derivatives import PhiDynamics
@@ -271,7 +272,8 @@ def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
         objective = PhysicsObjective(ArmGeometry(scene, variant), layout, cfg, x0,
                                      scene.target, knot_time, config.baseline.d_safe,
                                      force_exclude=held, static_geometry=static,
-                                     forces=dynamics, approach=approach)
+                                     forces=dynamics, approach=approach,
+                                     grasp_offset=grasp_offset(config.baseline))
         augmented = AugmentedPhi(dynamics, cfg.max_spectral_radius, cfg.parallel_line_search,
                                  cfg.hold_knots)
         if cfg.hold_knots > 0:

@@ -205,14 +205,17 @@ class PhysicsObjective:
     (``step_forces(x, u)`` and ``linearize_forces(xs, us)``, as `derivatives.PhiDynamics`)
     for c_force, unless ``config.force_source`` is "proxy". ``approach``: the direction (W) of
     c_approach / c_approach_axis on the last ``approach_knots`` knots (None: no such terms).
+    ``grasp_offset``: c_grasp's gripper point lies this far (m) behind G along x_G
+    (`approach.grasp_offset`: the pads' centre).
     """
 
     def __init__(self, geometry: ArmGeometry, layout: StateLayout, config: PhysicsConfig,
                  x0: np.ndarray, target: str, knot_time: float, d_safe: float,
                  force_exclude: tuple[str, ...] = (),
                  static_geometry: ArmGeometry | None = None, forces=None,
-                 approach: np.ndarray | None = None):
+                 approach: np.ndarray | None = None, grasp_offset: float = 0.0):
         self.geometry, self.layout, self.config = geometry, layout, config
+        self.grasp_offset = grasp_offset
         self.approach = (None if approach is None
                          else np.asarray(approach, dtype=float) / np.linalg.norm(approach))
         self.knot_time, self.d_safe = knot_time, d_safe
@@ -309,6 +312,9 @@ class PhysicsObjective:
     def _terminal(self, z: np.ndarray) -> dict[str, Term]:
         cfg, q = self.config, z[:ARM_DIM]
         p, axis_z, dp, dz = self.geometry.tool(q)
+        if self.grasp_offset:
+            axis_x, dx = self.geometry.tool_axis(q, 0)
+            p, dp = p - self.grasp_offset * axis_x, dp - self.grasp_offset * dx
         p_target, columns, first = self._target_point(z)
         majorize = cfg.distance_curvature == "majorizer"
         grasp = _embed(grasp_distance(p, dp, p_target, cfg.grasp_smoothing, majorize), columns,

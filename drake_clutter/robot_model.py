@@ -81,6 +81,7 @@ TOOL_OFFSET = 0.18  # m, tool frame ahead of the palm frame
 FINGER_JOINT_X = 0.07691  # m, x of the finger slides on the palm
 PAD_SIZE: Vec3 = (0.036, 0.0085, 0.022)  # m, (along approach, thickness, height)
 PAD_CENTER_X = 0.165  # m, pad centre ahead of the palm frame
+PADS_BEHIND_TOOL = TOOL_OFFSET - PAD_CENTER_X  # m, the pads' centre behind G along x_G
 GRIPPER_SPHERE_CENTER_X = 0.095  # m, sphere proxy centre ahead of the palm frame
 GRIPPER_SPHERE_RADIUS = 0.118  # m, encloses palm + fingers at full opening (tested)
 

@@ -104,8 +104,12 @@ def _expected_pregrasp(scene, alpha, config):
     target = scene.target_box
     h = max(config.grasp_height_fraction * target.size[2],
             0.045 + config.d_safe + config.pose_clearance)  # palm capsule radius 0.045 m
-    p = np.array([target.pose[0], target.pose[1], scene.shelf.top_height + h])
     x_axis = np.array([np.cos(alpha), np.sin(alpha), 0.0])
+    # "the target centred between the open fingers": the pads' centre (0.165 m ahead of the
+    # palm; G, the tool frame, 0.18 m) on the target's centre, so G 1.5 cm beyond it
+    pads_to_tool = 0.18 - 0.165 if config.grasp_point == "pads" else 0.0
+    p = (np.array([target.pose[0], target.pose[1], scene.shelf.top_height + h])
+         + pads_to_tool * x_axis)
     return p, x_axis
 
 
@@ -135,12 +139,14 @@ def test_gripper_extent_of_the_capsule_proxy(world):
     assert extent.ahead == pytest.approx(0.1755 + 0.016 - 0.18, abs=1e-9)  # finger cap - tool
 
 
-def test_approach_poses_follow_sec_iv(bookshelf, world):
+@pytest.mark.parametrize("grasp_point", ["pads", "tool_frame"])
+def test_approach_poses_follow_sec_iv(bookshelf, world, grasp_point):
     extent = gripper_extent(world)
     shelf = bookshelf.shelf
-    for alpha in approach_angles(CONFIG):
-        poses = approach_poses(bookshelf, alpha, CONFIG, extent)
-        p_pre, x_axis = _expected_pregrasp(bookshelf, alpha, CONFIG)
+    config = dataclasses.replace(CONFIG, grasp_point=grasp_point)
+    for alpha in approach_angles(config):
+        poses = approach_poses(bookshelf, alpha, config, extent)
+        p_pre, x_axis = _expected_pregrasp(bookshelf, alpha, config)
         np.testing.assert_allclose(poses.X_WPregrasp.translation(), p_pre, atol=1e-12)
         np.testing.assert_allclose(poses.X_WStart.rotation().matrix()[:, 0], x_axis, atol=1e-12)
         start = poses.X_WStart.translation()

@@ -160,6 +160,40 @@ def physics_problem(scene, geometry):
     return objective, layout, z
 
 
+def test_grasp_point_at_the_pads_is_on_the_target_and_its_gradient_matches(scene, geometry):
+    """With ``grasp_offset`` (the pads' centre, 1.5 cm behind G along x_G) c_grasp vanishes
+    where that point, not G, is on the target's centre; its gradient is the numerical one."""
+    from drake_clutter import robot_model
+
+    offset = robot_model.PADS_BEHIND_TOOL
+    layout = StateLayout(("target",))
+    p_G, *_ = geometry.tool(Q_PREGRASP)
+    x_G, _ = geometry.tool_axis(Q_PREGRASP, 0)
+    states = scene_box_states(scene)
+    at_pads = dict(states)
+    at_pads["target"] = states["target"].copy()
+    at_pads["target"][4:7] = p_G - offset * x_G
+    x = initial_state(layout, Q_PREGRASP, at_pads)
+    z = np.concatenate([x, Q_PREGRASP])
+    pads = PhysicsObjective(geometry, layout, PhysicsConfig(), x, "target", knot_time=0.2,
+                            d_safe=0.02, grasp_offset=offset)
+    tool = PhysicsObjective(geometry, layout, PhysicsConfig(), x, "target", knot_time=0.2,
+                            d_safe=0.02)
+    cfg = PhysicsConfig()
+    assert pads.state_terms(z, True)["grasp"].value < 1e-6 * cfg.w_grasp
+    assert tool.state_terms(z, True)["grasp"].value > 0.01 * cfg.w_grasp  # 1.5 cm away
+    q = Q_PREGRASP + 0.05  # off the target: a gradient worth checking
+    z = np.concatenate([initial_state(layout, q, at_pads), q])
+    term = pads.state_terms(z, True)["grasp"]
+
+    def value(d):
+        return np.array([pads.state_terms(_retract_z(layout, z, d), True)["grasp"].value])
+
+    numeric = _numeric_jacobian(value, np.zeros(pads.nz))[0]
+    assert np.abs(numeric).max() > 1.0
+    np.testing.assert_allclose(term.gradient, numeric, atol=1e-4 * np.abs(numeric).max())
+
+
 def _retract_z(layout, z, dz):
     return np.concatenate([layout.retract(z[:layout.nx], dz[:layout.ndx]),
                            z[layout.nx:] + dz[layout.ndx:]])

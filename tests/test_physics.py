@@ -687,8 +687,9 @@ BEHAVIOUR_SCENES = load_spec("behaviours")[0].shipped  # the experiment tier's f
 @pytest.mark.slow
 @pytest.mark.xfail(strict=False, reason=(
     "issue 6 open: the physics planner does not beat the baseline on these scenes - over 24 "
-    "initializations (the 'behaviours' experiment tier, 2026-11-24) 7 better, 10 same, 7 "
-    "worse - and one plan per scene is a draw: phi's objective is chaotic at the phi stages' "
+    "initializations (the 'behaviours' experiment tier, 2026-11-24, grasp at the pads) 7 better, 9 "
+    "same, 8 worse, the phi stages mostly stopping on a failed line search - and one plan "
+    "per scene is a draw: phi's objective is chaotic at the phi stages' "
     "step sizes (benchmarks/phi_sensitivity.py), so the same code gave 3 better + 1 same on "
     "one machine and 1 better, 2 same, 1 worse on another"))
 def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():

@@ -362,7 +362,8 @@ class PhysicsConfig:
     # toppling domino (tests/test_physics.py's hold-tail test: |error| 126 of 274). Not 1 by
     # default: `bench_planner --kind bookshelf --levels 25` took 193 s with 1 (6 iterations,
     # objective 0.036 of its start, 17 boxes kept by the last stage) against 113 s with 3
-    # (4 iterations, 0.065, 11 kept) (2026-11-24)
+    # (4 iterations, 0.065, 11 kept) (2026-11-24); behaviours tier at the pads 8 better / 8
+    # same / 8 worse, 1474 s, against the defaults' 7 / 9 / 8, 1238 s (noise)
     w_speed: float = 1.0e4  # ours (not in Table II): weight of c_speed, the squared excess of
     # a joint's move per knot over speed_fraction x its PR2 speed limit, added to c_acc's
     # interval term (the evaluation rejects plans beyond the limits; at w_acc = 1e-3 alone the
@@ -390,7 +391,8 @@ class PhysicsConfig:
     # axis d, its approach axis x_G along d (the fingers must straddle the target; Sec. IV's
     # approach lines). 0 = off. Why: the alpha-0 physics plans reached the target from above or
     # sideways (tool 2-20 cm off the line, x_G 13-30 deg off d over the last 0.8 s) where the
-    # baseline comes straight in, and a finger landed on fig7's target (149 N, measured)
+    # baseline comes straight in, and a finger landed on fig7's target (149 N, measured).
+    # Behaviours tier at the pads (2026-11-24): 5 gave 8 better / 7 same / 9 worse (0: 7/9/8)
     w_approach: float = 1e5  # ours: weight of c_approach = 1/2 offset^2 (m^2): 1 cm costs 5
     w_approach_axis: float = 1e3  # ours: weight of c_approach_axis = 1 - x_G.d: 0.1 rad costs 5
     force_source: Literal["phi", "proxy"] = "phi"  # c_force's force(q, x): "phi" = phi's
@@ -474,7 +476,8 @@ class PhysicsConfig:
     # instead of 174 s)
     feedback: bool = True  # phi stages' forward passes feed back K (x - x_bar); ours. False:
     # open loop always (K = 0: the box states' chaotic deviations in contact do not move the
-    # arm; the plan's feedback gains are still computed and saved)
+    # arm; the plan's feedback gains are still computed and saved). Behaviours tier at the pads
+    # (2026-11-24): False 6 better / 8 same / 10 worse, 1649 s; True 7 / 9 / 8, 1238 s
     min_step: float = 1e-3  # rad (m for the opening): a phi stage stops after an accepted
     # step that moved no control by this much (1 mrad: < 1 mm at the gripper); ours, 0 = off.
     # Why: late in the phi stages the line search accepts step sizes 1e-4..1e-7 at mu

@@ -175,11 +175,10 @@ def test_grasp_point_at_the_pads_is_on_the_target_and_its_gradient_matches(scene
     at_pads["target"][4:7] = p_G - offset * x_G
     x = initial_state(layout, Q_PREGRASP, at_pads)
     z = np.concatenate([x, Q_PREGRASP])
-    pads = PhysicsObjective(geometry, layout, PhysicsConfig(), x, "target", knot_time=0.2,
-                            d_safe=0.02, grasp_offset=offset)
-    tool = PhysicsObjective(geometry, layout, PhysicsConfig(), x, "target", knot_time=0.2,
-                            d_safe=0.02)
     cfg = PhysicsConfig()
+    pads = PhysicsObjective(geometry, layout, cfg, x, "target", knot_time=0.2, d_safe=0.02,
+                            grasp_offset=offset)
+    tool = PhysicsObjective(geometry, layout, cfg, x, "target", knot_time=0.2, d_safe=0.02)
     assert pads.state_terms(z, True)["grasp"].value < 1e-6 * cfg.w_grasp
     assert tool.state_terms(z, True)["grasp"].value > 0.01 * cfg.w_grasp  # 1.5 cm away
     q = Q_PREGRASP + 0.05  # off the target: a gradient worth checking

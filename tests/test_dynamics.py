@@ -259,10 +259,11 @@ def test_a_box_pressed_into_the_shelf_has_a_force_a_resting_one_has_none(pruned1
 @pytest.mark.parametrize("approximation", [
     "similar",
     pytest.param("sap", marks=pytest.mark.xfail(strict=True, reason=(
-        "issue 5 open: under SAP's linear dissipation the board throws a toppling thin box "
-        "2-3 m up (measured at every spin 2-8 rad/s; also on fig5's baseline plan, where "
-        "Bullet lays it 16.5 cm away); Hunt-Crossley ('similar') does not, but its AutoDiffXd "
-        "derivatives are unusable, so phi stays on SAP")))])
+        "a known limit of phi's fidelity (issue 6; issue 5 ended blocked): under SAP's "
+        "linear dissipation the board throws a toppling thin box 2-3 m up (measured at every "
+        "spin 2-8 rad/s; also on fig5's baseline plan, where Bullet lays it 16.5 cm away); "
+        "Hunt-Crossley ('similar') does not, but its AutoDiffXd derivatives are unusable, so "
+        "phi stays on SAP")))])
 def test_a_toppling_thin_box_lands_on_the_board(approximation):
     """fig5's small_tippy (3.5 x 3.5 x 22 cm) set tipping at 4 rad/s, alone in phi with the
     arm parked, must land lying on the board about its height away, as Bullet has it (16.5 cm

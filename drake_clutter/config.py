@@ -311,7 +311,7 @@ class PhysicsConfig:
     # phi (ours; the sphere engulfs the target at the pre-grasp): "passes" = a dynamic box
     # the arm passes through (other boxes still push it; c_grasp follows it); "parked" =
     # welded out of the world (c_grasp aims at its resting pose; boxes pass its place).
-    # Measured ("passes"): fig6 worse, fig8 the same kinematic failure (README)
+    # Measured ("passes"): fig6 worse, fig8 the same kinematic failure (docs/physics_planner_log.md)
     w_static: float = 1e3  # Table II
     w_acc: float = 1e-3  # Table II
     step_smoothing: float = 0.0  # ours, 0 = off: this multiple of c_acc's unweighted Hessian
@@ -323,7 +323,8 @@ class PhysicsConfig:
     w_static_deep: float = 0.0  # ours: weight of c_static's steep part in the phi stages,
     # 1/2 (depth beyond static_depth)^2 per arm-shelf pair and knot (phi's arm passes through
     # the shelf, and the phi stages left it 1-3 cm deep in the board on fig8, measured); 0: off
-    # (at 1e7, with or without phi_static_substeps 6, no behaviour scene improved: README)
+    # (at 1e7, with or without phi_static_substeps 6, no behaviour scene improved:
+    # docs/physics_planner_log.md)
     static_depth: float = 0.003  # m the arm may sink into the shelf before the steep part;
     # ours: below the evaluation's static_penetration (5 mm)
     phi_static_substeps: int = 1  # configurations per knot interval in the phi stages'
@@ -375,7 +376,7 @@ class PhysicsConfig:
     # (15 reached 0.84; one swung a finger 30 cm in 0.2 s) and 10 of those 17 failed
     # kinematically in Bullet, none of the 4 that stayed under 0.25. At 0.25 (same code
     # otherwise) the alpha-0 behaviour plans failed kinematically on 1 of 4 scenes instead
-    # of 3 (README)
+    # of 3 (docs/physics_planner_log.md)
     grasp_smoothing: float = 0.005  # m, c_grasp = sqrt(d^2 + eps^2) - eps; ours: smooth
     # below 5 mm, the paper's distance beyond
     distance_curvature: Literal["gauss_newton", "majorizer"] = "majorizer"  # Hessian of
@@ -384,7 +385,8 @@ class PhysicsConfig:
     # model predicts decreases beyond the whole objective until the regulariser reaches
     # 1e3-1e7 (measured); "majorizer": grad grad' / value, the quadratic above the term.
     # Measured at alpha 0 (2026-11-24, with min_step): fig5 partial success, fig6 the same,
-    # fig7 and fig8 fewer boxes disturbed than the baseline - Sec. VI-A's test met (README)
+    # fig7 and fig8 fewer boxes disturbed than the baseline - Sec. VI-A's test met on that
+    # machine, not on others (docs/physics_planner_log.md)
     approach_knots: int = 0  # ours (not in Table I): the last knots (Delta included) on which
     # c_approach and c_approach_axis hold the gripper on the candidate's straight approach: the
     # tool frame on the line through the target's centre along the baseline's final approach
@@ -422,11 +424,12 @@ class PhysicsConfig:
     # defaults gave 4 / 3 / 1 on the same 8: the phi stages put the kinks back (median 0.34)
     post_iterations: int = 40  # iLQR iterations of the Sec. V-B post-processing; ours (a
     # kinematic iLQR: seconds). Measured (2026-11-23, 16 stored physics plans of the
-    # behaviour scenes at alpha -0.21 / +0.21, README): at 10, 4 plans ended with c_static
-    # 16-58 in the evaluation geometry; 30 more iterations turned fig8 +0.21 from a kinematic
-    # failure into a failure to grasp with nothing disturbed, left the other failures failures,
-    # and changed one outcome by a box (fig7 -0.21, 3 further iterations on a converged path:
-    # Bullet's cascade is that sensitive); fig8 -0.21 converges at c_static 7.3 (c_match)
+    # behaviour scenes at alpha -0.21 / +0.21, docs/physics_planner_log.md): at 10, 4 plans
+    # ended with c_static 16-58 in the evaluation geometry; 30 more iterations turned fig8
+    # +0.21 from a kinematic failure into a failure to grasp with nothing disturbed, left the
+    # other failures failures, and changed one outcome by a box (fig7 -0.21, 3 further
+    # iterations on a converged path: Bullet's cascade is that sensitive); fig8 -0.21
+    # converges at c_static 7.3 (c_match)
     sweep_spacing: float = 0.01  # m; ours: c_static / c_static_hull / c_dynamic sampled on a
     # knot interval take at least sweep / sweep_spacing configurations, sweep bounding how far
     # an arm point travels (`ArmGeometry.sweep`); 0 = the fixed counts alone. Measured
@@ -487,7 +490,7 @@ class PhysicsConfig:
     # outcome on all four (fig7 and fig8 the same plan within 2e-4 rad); full stages 92-254 s
     # instead of 158-746 s (two plans sharing the 2 cores against three); at alpha +-0.21
     # no plan graded worse than without it and one better (fig5 +0.21), 99-415 s a plan
-    # instead of 254-730 s (README)
+    # instead of 254-730 s (docs/physics_planner_log.md)
 
 
 @dataclass(frozen=True)

@@ -67,12 +67,16 @@ def stored_plans(dbs: list[str], configurations: list[str]) -> list[dict]:
 
 def objective_terms(scene, q: np.ndarray, config) -> dict[str, float] | None:
     """The full stage's objective of the knot path ``q`` per Table I term, every box dynamic
-    in phi; None where phi cannot roll it out."""
-    with stage_problem(scene, q, config, "capsules") as problem:
-        zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
-        if not np.all(np.isfinite(zs)):
-            return None
-        return {k: float(v) for k, v in problem.objective.terms(zs, q[1:]).items()}
+    in phi; None where phi cannot roll it out (a non-finite state or a Drake error: such a
+    plan is reported and left out of the counts)."""
+    try:
+        with stage_problem(scene, q, config, "capsules") as problem:
+            zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
+            if not np.all(np.isfinite(zs)):
+                return None
+            return {k: float(v) for k, v in problem.objective.terms(zs, q[1:]).items()}
+    except (RuntimeError, ValueError):  # Drake's solver errors
+        return None
 
 
 def order_agreement(plans: list[dict]) -> dict[str, Counter]:
@@ -130,6 +134,11 @@ def main(argv=None) -> int:
         plans = stored_plans(args.db, args.configurations)
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if not plans:
+        print(f"error: {', '.join(args.db)}: no stored plan of a shipped scene"
+              + (f" in configurations {', '.join(args.configurations)}"
+                 if args.configurations else ""), file=sys.stderr)
         return 2
     config = replace(config, dynamics=replace(config.dynamics, prune_margin=EVERY_BOX))
     cache = {}

@@ -33,10 +33,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from drake_clutter import ilqr, scenes
+from drake_clutter import scenes
 from drake_clutter.config import load_config
 from drake_clutter.evaluation import evaluate, outcome_grade
 from drake_clutter.phi_stage import stage_problem
+from drake_clutter.physics import path_terms
 from drake_clutter.report import row_grade, verdict
 from drake_clutter.store import Store
 from drake_clutter.trajectory import Trajectory
@@ -71,10 +72,7 @@ def objective_terms(scene, q: np.ndarray, config) -> dict[str, float] | None:
     plan is reported and left out of the counts)."""
     try:
         with stage_problem(scene, q, config, "capsules") as problem:
-            zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
-            if not np.all(np.isfinite(zs)):
-                return None
-            return {k: float(v) for k, v in problem.objective.terms(zs, q[1:]).items()}
+            return path_terms(problem.augmented, problem.objective, problem.z0, q)
     except (RuntimeError, ValueError):  # Drake's solver errors
         return None
 

@@ -178,13 +178,21 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
     return np.vstack([q[:1], result.us]), result, info
 
 
+def path_terms(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.ndarray,
+               q: np.ndarray) -> dict[str, float] | None:
+    """A phi stage's objective per Table I term for the knot path ``q`` (T + 1, 8) rolled out
+    from z0; None where phi's rollout is not finite."""
+    zs = ilqr.rollout(dynamics, z0, q[1:])
+    if not np.all(np.isfinite(zs)):
+        return None
+    return {k: float(v) for k, v in objective.terms(zs, q[1:]).items()}
+
+
 def _path_objective(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.ndarray,
                     q: np.ndarray) -> float:
     """The stage's objective of the knot path ``q`` rolled out from z0 (inf where phi fails)."""
-    zs = ilqr.rollout(dynamics, z0, q[1:])
-    if not np.all(np.isfinite(zs)):
-        return float("inf")
-    return float(sum(objective.terms(zs, q[1:]).values()))
+    terms = path_terms(dynamics, objective, z0, q)
+    return float("inf") if terms is None else float(sum(terms.values()))
 
 
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,

@@ -148,7 +148,8 @@ def make_pruned_spec(scene: Scene, arm_path: np.ndarray,
     """The phi of a candidate trajectory (knot rows of TRAJECTORY_JOINTS, the first being the
     start), pruned against the current ``box_states``, then checked by rolling the path out:
     frozen boxes that a kept box or the arm reached become dynamic, up to ``prune_rounds``
-    rollouts (``PruneReport.rounds``/``added`` say what happened)."""
+    rollouts (``PruneReport.rounds``/``added`` say what happened); none when no box is frozen
+    (every box kept: there is nothing for a rollout to find)."""
     config = config or DynamicsConfig()
     world_config = world_config or WorldConfig()
     states = scene_box_states(scene) if box_states is None else box_states
@@ -156,7 +157,7 @@ def make_pruned_spec(scene: Scene, arm_path: np.ndarray,
     kept, added, rounds = set(report.kept), set(), 0
     spec = make_spec(scene, _in_scene_order(scene, kept), states, knot_time, config,
                      world_config, variant)
-    while rounds < config.prune_rounds:
+    while rounds < config.prune_rounds and spec.frozen:
         rounds += 1
         touched = rollout_touches_frozen(spec, arm_path, states)
         if not touched:

@@ -13,7 +13,7 @@ every baseline candidate that came out usable (``--planner both``, the default, 
 Bullet (Sec. III) with a recording. A table prints, per angle, each planner's outcome and
 planning time. Meshcat then replays the chosen angle, the plans of both planners side by side
 (physics on the right, baseline on the left; the boxes move as Bullet moved them, tipped boxes
-orange, fallen red, contact forces as yellow arrows; drake_clutter/replay.py): the angle with
+orange, fallen red, contact forces as yellow arrows; drake_clutter/viz/replay.py): the angle with
 the best physics outcome among those both planners made a plan for (ties: the better baseline
 outcome, then the first). Cost curves of the physics plans (each term per iLQR iteration) go
 to PNG files. Prints the Meshcat URL and serves until Ctrl-C unless --html or --no-browser is
@@ -30,16 +30,16 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_clutter.cli import EXIT_USAGE
-from drake_clutter.config import load_config
-from drake_clutter.robot_model import VARIANTS
-from drake_clutter.scenes import DEFAULT_SCENE, resolve_scene
-from drake_clutter.typed_yaml import InputError
+from drake_clutter.common.config import load_config
+from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
+from drake_clutter.evaluation.judge import OUTCOME_KINDS
+from drake_clutter.planners.registry import planner_names, run_planners
+from drake_clutter.robot.pr2 import VARIANTS
+from drake_clutter.scene.scenes import DEFAULT_SCENE, resolve_scene
 
 # Best first: the order in which an outcome is preferred for the Meshcat replay.
-_RANK = ("success", "partial_success", "failure_to_grasp", "objects_falling",
-         "kinematic_failure", "planner_failure")
-PLANNERS = ("baseline", "physics", "both")
+_RANK = OUTCOME_KINDS
+ALL_PLANNERS = "both"  # --planner: every registered planner
 
 
 def with_iterations(config, iterations: int):
@@ -52,39 +52,30 @@ def with_iterations(config, iterations: int):
     return dataclasses.replace(config, physics=physics)
 
 
-def plan_and_evaluate(scene, config, angles: int, planner: str = "both") -> dict:
+def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS) -> dict:
     """{planner: (candidates, Bullet outcomes with recordings)} for ``angles`` approach angles,
-    in the order shown (physics first)."""
-    from drake_clutter.baseline import plan_baseline
-    from drake_clutter.evaluation import evaluate_candidates
-    from drake_clutter.physics import plan_physics
+    in the order shown (the registry's order reversed: physics first, on the right)."""
+    from drake_clutter.evaluation.judge import evaluate_candidates
 
-    baseline = plan_baseline(scene, dataclasses.replace(config.baseline, num_angles=angles))
-    plans = {}
-    if planner in ("physics", "both"):
-        plans["physics"] = plan_physics(scene, config, baseline)
-    if planner in ("baseline", "both"):
-        plans["baseline"] = baseline
+    names = planner_names()[::-1] if planner == ALL_PLANNERS else (planner,)
+    plans = run_planners(scene, config, names, num_angles=angles)
     return {name: (candidates, evaluate_candidates(scene, candidates, config.evaluation,
                                                    record_fps=config.viz.fps))
             for name, candidates in plans.items()}
 
 
 def outcome_table(plans: dict) -> str:
-    """One row per angle: each planner's outcome kind and planning time (s), and the physics
-    planner's seconds per stage."""
+    """One row per angle: each planner's outcome kind and planning time (s), and the seconds
+    per stage of the planner shown first."""
     names = list(plans)
     header = f"{'alpha':>7}  " + "  ".join(f"{n:18} {'s':>6}" for n in names)
-    rows = [header + ("  stages (s)" if "physics" in plans else "")]
+    rows = [header + f"  {names[0]} stages (s)"]
     for i, first in enumerate(plans[names[0]][0]):
         cells = []
         for name in names:
             candidate, outcome = plans[name][0][i], plans[name][1][i]
             cells.append(f"{outcome.kind:18} {sum(candidate.timings.values()):6.1f}")
-        stages = ""
-        if "physics" in plans:
-            stages = "  " + " ".join(f"{k}={v:.1f}" for k, v in
-                                     plans["physics"][0][i].timings.items())
+        stages = "  " + " ".join(f"{k}={v:.1f}" for k, v in first.timings.items())
         rows.append(f"{first.alpha:+7.3f}  " + "  ".join(cells) + stages)
     return "\n".join(rows)
 
@@ -113,12 +104,12 @@ def choose_angle(plans: dict) -> tuple[int, list[str]] | None:
 
 
 def write_cost_curves(plans: dict, directory: Path, stem: str) -> list[Path]:
-    """A PNG of cost curves per physics plan with an iLQR history:
-    ``<directory>/<stem>_costs_physics_<alpha>.png``."""
-    from drake_clutter.cost_curves import plot_cost_curves
+    """A PNG of cost curves per plan with an iLQR history (the physics planner's):
+    ``<directory>/<stem>_costs_<planner>_<alpha>.png``."""
+    from drake_clutter.viz.cost_curves import plot_cost_curves
 
     written = []
-    for candidate in plans.get("physics", ([], []))[0]:
+    for candidate in (c for candidates, _ in plans.values() for c in candidates):
         path = directory / f"{stem}_costs_{candidate.planner}_{candidate.alpha:+.3f}.png"
         if plot_cost_curves(candidate, path) is not None:
             written.append(path)
@@ -131,8 +122,8 @@ def replay(scene, config, plans: dict, choice, variant: str, html: str | None,
     plan is usable), then writes ``html`` or serves (until Ctrl-C when ``wait``)."""
     from pydrake.geometry import Meshcat
 
-    from drake_clutter.replay import PlanView, record_replay
-    from drake_clutter.viz import show_scene, write_static_html
+    from drake_clutter.viz.replay import PlanView, record_replay
+    from drake_clutter.viz.views import show_scene, write_static_html
 
     if choice is None:
         print("no usable plan: showing the scene")
@@ -163,7 +154,8 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default=DEFAULT_SCENE,
                         help=f"shipped scene name or YAML file (default: {DEFAULT_SCENE})")
-    parser.add_argument("--planner", choices=PLANNERS, default="both",
+    parser.add_argument("--planner", choices=(*planner_names(), ALL_PLANNERS),
+                        default=ALL_PLANNERS,
                         help="which plans to make and show (default: both)")
     parser.add_argument("--html", help="write a self-contained HTML file instead of serving "
                         "(cost curves go next to it)")

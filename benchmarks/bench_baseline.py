@@ -6,7 +6,7 @@ many angles were IK-feasible and ended "ok".
     python benchmarks/bench_baseline.py                 # 2 scenes per level, 14 angles each
     python benchmarks/bench_baseline.py --seeds 1 --angles 7
 
-Target (issue 3): a median of at most 1 s per angle (IK + optimisation + check) on the
+Target: a median of at most 1 s per angle (IK + optimisation + check) on the
 project's 2-core machine. The reference measured in the same run is one arm-vs-shelf
 signed-distance query; one evaluation of the optimiser's cost queries (num_knots - 1) x
 opt_substeps configurations, and the optimisation time is also printed in such evaluations
@@ -24,11 +24,11 @@ import time
 
 import numpy as np
 
-from drake_clutter.approach import static_planning_world
-from drake_clutter.baseline import plan_baseline
-from drake_clutter.clearance import ShelfClearance
-from drake_clutter.config import BaselineConfig, Config, WorldConfig, load_config
-from drake_clutter.generators import generate_scene, scene_set
+from drake_clutter.common.config import BaselineConfig, Config, WorldConfig, load_config
+from drake_clutter.planners.approach import static_planning_world
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.clearance import ShelfClearance
+from drake_clutter.scene.generators import generate_scene, scene_set
 
 LEVELS = {"bookshelf": (1, 10, 25), "fridge": (1, 8, 16)}
 

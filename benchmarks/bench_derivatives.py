@@ -1,4 +1,4 @@
-"""Benchmark of phi and its Jacobians (issue 5): pruning, colouring, workers against brute force.
+"""Benchmark of phi and its Jacobians: pruning, colouring, workers against brute force.
 
 For bookshelf scenes with 1, 5, 10, 15, 20, 25 boxes (seed 0: the same target at every level)
 and a baseline-like straight reach (tests/reach_paths.py; 30 knots, 0.2 s apart) it prints:
@@ -20,22 +20,15 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-
-from reach_paths import straight_reach  # noqa: E402
-
-from drake_clutter.config import load_config  # noqa: E402
-from drake_clutter.derivative_groups import dense_jacobians  # noqa: E402
-from drake_clutter.derivative_workers import WorkerPool  # noqa: E402
-from drake_clutter.derivatives import PhiDynamics  # noqa: E402
-from drake_clutter.derivatives_autodiff import AutoDiffPhi  # noqa: E402
-from drake_clutter.dynamics import (  # noqa: E402
+from drake_clutter.common.config import load_config
+from drake_clutter.phi.autodiff import AutoDiffPhi
+from drake_clutter.phi.colouring import dense_jacobians
+from drake_clutter.phi.derivatives import PhiDynamics
+from drake_clutter.phi.dynamics import (
     ARM_NODE,
     NU,
     Phi,
@@ -43,8 +36,10 @@ from drake_clutter.dynamics import (  # noqa: E402
     make_spec,
     scene_box_states,
 )
-from drake_clutter.generators import generate_scene  # noqa: E402
-from drake_clutter.pruning import make_pruned_spec  # noqa: E402
+from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.workers import WorkerPool
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.testing.reach_paths import straight_reach
 
 
 def _timed(fn, *args):

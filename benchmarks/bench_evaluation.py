@@ -1,4 +1,4 @@
-"""Time per evaluation in Bullet at 1, 10 and 25 boxes (issue 4; paper Sec. VI-B: ~1 s each).
+"""Time per evaluation in Bullet at 1, 10 and 25 boxes (paper Sec. VI-B: ~1 s each).
 
     python benchmarks/bench_evaluation.py [--scenes 3] [--repeats 2]
 
@@ -24,13 +24,13 @@ from pydrake.math import RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.solvers import Solve
 
-from drake_clutter import bullet_world as bw
-from drake_clutter.config import BaselineConfig, EvaluationConfig
-from drake_clutter.evaluation import evaluate
-from drake_clutter.generators import generate_scene
-from drake_clutter.scenes import Scene
+from drake_clutter.common.config import BaselineConfig, EvaluationConfig
+from drake_clutter.evaluation.judge import evaluate
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Trajectory, trajectory_coordinates
-from drake_clutter.world import build_planning_world
+from drake_clutter.worlds import bullet_world as bw
+from drake_clutter.worlds.drake_world import build_planning_world
 
 LEVELS = (1, 10, 25)
 SEEDS = (-0.7, 0.9, -1.5, -2.1, 2.3, -1.2, -2.0)  # rad, an elbow-out arm posture to start IK

@@ -1,4 +1,4 @@
-"""How well phi predicts the judge: phi and Bullet on the same plans (issues 5 and 6).
+"""How well phi predicts the judge: phi and Bullet on the same plans.
 
     python benchmarks/bench_fidelity.py [--angles K] [--generated N --clutter M --seed S]
         [--set FIELD=VALUE ...] [--variant "FIELD=VALUE,FIELD=VALUE" ...] [--arm VARIANT]
@@ -8,7 +8,7 @@ The physics planner can only be as good as phi's prediction of what Bullet will 
 are the baseline's: on each behaviour scene (Sec. VI-A) at its provenance angle, or with
 ``--angles K`` at K approach angles; ``--generated N`` adds N random bookshelf scenes of
 ``--clutter`` boxes (seeds ``--seed`` on). Each plan is replayed once in Bullet
-(`evaluation.evaluate`: hard contacts, until the boxes rest) and rolled out in phi with every
+(`judge.evaluate`: hard contacts, until the boxes rest) and rolled out in phi with every
 box dynamic (no pruning), then ``--settle`` seconds with the arm held, once for the reference
 configuration (``--set``) and once per ``--variant`` (overrides on top of it): the variants are
 judged on the same plans and the same Bullet replays. Each box is classed as in Sec. III on
@@ -31,57 +31,23 @@ is c_static's matter: phi's arm passes through the shelf.)
 from __future__ import annotations
 
 import argparse
-import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
-from drake_clutter import scenes
-from drake_clutter.approach import approach_angles
-from drake_clutter.baseline import plan_baseline
-from drake_clutter.config import load_config
-from drake_clutter.dynamics import Phi, initial_state, make_spec, scene_box_states
-from drake_clutter.evaluation import evaluate, off_the_board, tilt_angle
-from drake_clutter.generators import generate_scene
-from drake_clutter.robot_model import VARIANTS
+from drake_clutter.common.config import load_config
+from drake_clutter.evaluation.judge import evaluate
+from drake_clutter.planners.approach import approach_angles
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.robot.pr2 import VARIANTS
+from drake_clutter.scene import scenes
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.testing.fidelity import classes, phi_final
 
 SCENES = ("fig5_large_small", "fig6_push_sideways", "fig7_cascade", "fig8_snaking")
 MOVED_CM = 1.0  # a box that moved less than this in both engines says nothing
 THROWN_CM, SHORT_CM = 100.0, 30.0  # phi over THROWN_CM where Bullet under SHORT_CM: thrown
 JAM_N = 50.0  # N: phi's peak arm force that "predicts" a kinematic failure (Sec. III's 50 N)
-
-
-def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list[str]:
-    """Sec. III's class per box from final positions (W, m) and tilts (rad)."""
-    fallen = off_the_board(scene, p_WB)
-    return ["fallen" if f else "tipped" if t > max_tilt else "standing"
-            for f, t in zip(fallen, tilts, strict=True)]
-
-
-def phi_final(scene, trajectory, config, settle: float, arm: str = "capsules",
-              until: float | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Box positions (n, 3, W, m) and tilts (n, rad) after phi, its arm in geometry variant
-    ``arm``, rolls the plan out with every box dynamic and holds the arm ``settle`` s; the
-    rollout's seconds; and the peak knot-mean contact force on the arm (N) over the plan, or
-    over its knots up to ``until`` s plus one knot."""
-    names = [b.name for b in scene.boxes]
-    knot_time = float(np.diff(trajectory.times[:2])[0])
-    spec = make_spec(scene, names, None, knot_time, config.dynamics, config.world, arm)
-    phi = Phi(spec)
-    tic = time.perf_counter()
-    x = phi.settle(initial_state(spec.layout, trajectory.q[0], scene_box_states(scene)))
-    peak = 0.0
-    for t, u in zip(trajectory.times[1:], trajectory.q[1:], strict=True):
-        if until is not None and t > until + knot_time:
-            break
-        x, f = phi.step_forces(x, u)
-        peak = max(peak, float(np.nan_to_num(f[0])))
-    x = phi.settle(x, settle)
-    seconds = time.perf_counter() - tic
-    boxes = spec.layout.boxes(x)
-    R = Rotation.from_quat(np.nan_to_num(boxes[:, [1, 2, 3, 0]], nan=1.0)).as_matrix()
-    return boxes[:, 4:7], tilt_angle(R), seconds, peak
 
 
 def _median_n(values: np.ndarray) -> str:

@@ -6,7 +6,7 @@ full, post): the project's Fig. 9c.
     python benchmarks/bench_planner.py                          # every Sec. VI-B level
     python benchmarks/bench_planner.py --kind bookshelf --levels 1 25 --set physics.iterations=6
 
-Target (issue 6): at most 60 s per initialization at 25 boxes on the project's 2-core machine.
+Target: at most 60 s per initialization at 25 boxes on the project's 2-core machine.
 Scenes are the first of each level of the 'paper' set; per scene the baseline plans
 ``--angles`` angles and the first usable candidate is optimised. The reference measured in the
 same run is one phi step of the scene's first rollout (the kept boxes, ``dynamics.substeps``
@@ -24,13 +24,13 @@ import time
 
 import numpy as np
 
-from drake_clutter.baseline import plan_baseline
-from drake_clutter.config import load_config
-from drake_clutter.derivative_workers import WorkerPool
-from drake_clutter.dynamics import Phi, initial_state, scene_box_states
-from drake_clutter.generators import generate_scene, scene_set
-from drake_clutter.physics import optimise_candidate
-from drake_clutter.pruning import make_pruned_spec
+from drake_clutter.common.config import load_config
+from drake_clutter.phi.dynamics import Phi, initial_state, scene_box_states
+from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.workers import WorkerPool
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.physics.pipeline import optimise_candidate
+from drake_clutter.scene.generators import generate_scene, scene_set
 
 
 def phi_step_seconds(scene, candidate, config, repeats: int = 5) -> float:

@@ -1,11 +1,11 @@
-"""Does a pushed box tip? phi and Bullet on one controlled push (issues 5 and 6).
+"""Does a pushed box tip? phi and Bullet on one controlled push.
 
     python benchmarks/bench_push.py [--set FIELD=VALUE ...]
 
 fig5_large_small's target alone on the board with one obstacle box in front of it, in the
 baseline's path at alpha = 0: the arm pushes the obstacle into the target. The obstacle's
 width w (square footprint), height h and lateral offset y sweep a grid; for each the
-baseline's plan is replayed in Bullet (`evaluation.evaluate`) and rolled out in phi with both
+baseline's plan is replayed in Bullet (`judge.evaluate`) and rolled out in phi with both
 boxes dynamic (`bench_fidelity.phi_final`), and both boxes are classed as in Sec. III
 (standing / tipped / fallen). Printed per case: each engine's class, displacement (cm) and
 tilt (deg) of the obstacle, and the target's class in each; then how many boxes agree.
@@ -17,18 +17,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
-from pathlib import Path
 
 import numpy as np
 
-from drake_clutter import scenes
-from drake_clutter.baseline import plan_baseline
-from drake_clutter.config import load_config
-from drake_clutter.evaluation import evaluate
-
-sys.path.insert(0, str(Path(__file__).parent))
-from bench_fidelity import classes, phi_final  # noqa: E402
+from drake_clutter.common.config import load_config
+from drake_clutter.evaluation.judge import evaluate
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.scene import scenes
+from drake_clutter.testing.fidelity import classes, phi_final
 
 WIDTHS = (0.04, 0.06, 0.08, 0.10)  # m, the obstacle's square footprint
 HEIGHTS = (0.10, 0.16, 0.22)  # m

@@ -8,7 +8,7 @@
 Every plan is replayed in Bullet as it is, then ``--replicas`` times with each interior knot's
 seven arm joints moved by eps x a seeded standard normal (rad; the first and last knots and
 the gripper left alone), for each ``--eps``. Printed per plan: its grade (Sec. VI-A's class,
-then boxes tipped or fallen: `evaluation.behaviour_grade`) and the replicas' grades; then per
+then boxes tipped or fallen: `judge.behaviour_grade`) and the replicas' grades; then per
 planner and eps, how many replays changed grade. Without ``--db``: the baseline's plans of the
 shipped behaviour scenes at the given angle indices, each angle planned alone (as an
 experiment unit plans it). With ``--db``: every stored plan of a shipped scene in that
@@ -24,12 +24,12 @@ from collections import Counter
 
 import numpy as np
 
-from drake_clutter import scenes
-from drake_clutter.config import load_config
-from drake_clutter.evaluation import evaluate, outcome_grade
-from drake_clutter.experiments import load_spec, plan_one_angle
-from drake_clutter.report import verdict
-from drake_clutter.store import Store
+from drake_clutter.common.config import load_config
+from drake_clutter.evaluation.judge import evaluate, outcome_grade
+from drake_clutter.experiments.report import verdict
+from drake_clutter.experiments.specs import load_spec, plan_one_angle
+from drake_clutter.experiments.store import Store
+from drake_clutter.scene import scenes
 from drake_clutter.trajectory import Trajectory
 
 BEHAVIOUR_SCENES = load_spec("behaviours")[0].shipped  # Sec. VI-A's four scenes, one list

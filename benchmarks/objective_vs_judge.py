@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Does phi's objective grade plans as the Bullet judge does? (issue 6)
+"""Does phi's objective grade plans as the Bullet judge does?
 
     python benchmarks/objective_vs_judge.py --db RUN.db [--db RUN2.db ...]
         [--configurations NAME ...] [--set FIELD=VALUE ...] [--rejudge]
@@ -11,7 +11,7 @@ stores, is rolled out once), rolls it out in phi with every box dynamic (no prun
 plans of a scene meet the same boxes) and prices it with the full stage's objective (Table I
 with the Table II weights, the capsule arm and the held knots after Delta: what the planner
 minimises last), with ``--set`` overrides on the defaults. The grade is the stored one
-(`evaluation.behaviour_grade`: Sec. VI-A's class, then boxes tipped or fallen), or with
+(`judge.behaviour_grade`: Sec. VI-A's class, then boxes tipped or fallen), or with
 ``--rejudge`` that of a fresh Bullet replay under the configuration's ``evaluation`` section
 (e.g. ``--set evaluation.solver_iterations=50 --rejudge``: is a judge that resolves friction
 better closer to phi?).
@@ -33,15 +33,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from drake_clutter import scenes
-from drake_clutter.config import load_config
-from drake_clutter.evaluation import evaluate, outcome_grade
-from drake_clutter.phi_stage import stage_problem
-from drake_clutter.physics import path_terms
-from drake_clutter.report import row_grade, verdict
-from drake_clutter.store import Store
+from drake_clutter.common.config import load_config
+from drake_clutter.common.typed_yaml import InputError
+from drake_clutter.evaluation.judge import evaluate, outcome_grade
+from drake_clutter.experiments.report import row_grade, verdict
+from drake_clutter.experiments.store import Store
+from drake_clutter.planners.physics.pipeline import path_terms
+from drake_clutter.planners.physics.stage import stage_problem
+from drake_clutter.scene import scenes
 from drake_clutter.trajectory import Trajectory
-from drake_clutter.typed_yaml import InputError
 
 EVERY_BOX = 100.0  # m, a prune margin that keeps every box of a shelf dynamic in phi
 

@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""How smooth is a phi stage's objective? Why its line searches fail (issue 6).
+"""How smooth is a phi stage's objective? Why its line searches fail.
 
     python benchmarks/phi_sensitivity.py [SCENE] [--generated KIND N SEED] [--variant V]
         [--directions D] [--seed S] [--set FIELD=VALUE ...]
 
 On the pre-processed baseline path of one scene (a shipped scene at its provenance angle, by
 default fig7_cascade, or the first usable of 3 angles of a generated one), builds the phi
-stage's problem (`phi_stage.stage_problem`; ``--variant`` capsules = the full stage) and prints:
+stage's problem (`stage.stage_problem`; ``--variant`` capsules = the full stage) and prints:
 
 1. Sensitivity: the objective's change dJ, and the largest change of any box state (rad, m,
    rad/s, m/s), when every arm control (rad; the gripper left alone) moves by eps along a
@@ -28,13 +28,14 @@ import dataclasses
 
 import numpy as np
 
-from drake_clutter import ilqr, scenes
-from drake_clutter.baseline import plan_baseline
-from drake_clutter.config import load_config
-from drake_clutter.derivative_workers import WorkerPool
-from drake_clutter.generators import generate_scene
-from drake_clutter.phi_stage import stage_problem
-from drake_clutter.physics import preprocess, solver_settings
+from drake_clutter.common.config import load_config
+from drake_clutter.phi.workers import WorkerPool
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.physics.pipeline import preprocess, solver_settings
+from drake_clutter.planners.physics.stage import stage_problem
+from drake_clutter.scene import scenes
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.solvers import ilqr
 
 EPSILONS = (1e-9, 1e-7, 1e-5, 1e-3)
 

@@ -1,10 +1,14 @@
 """The ``drake-clutter`` command line.
 
-Subcommands (more arrive with the planners):
+Subcommands:
   scene generate --kind bookshelf|fridge --objects N --seed S -o FILE
   scene validate FILE
   scene show FILE|NAME [--html FILE] [--variant V]
   scene list
+  plan SCENE --planner baseline|physics|both [--angles K] --out PLAN.json
+  evaluate SCENE PLAN.json [--lift] --out OUTCOMES.json
+  experiment run SPEC|TIER --db RUN.db [--workers N] [--executor local|ray]
+  report RUN.db --out DIR
   config show [--config FILE] [--set key=value ...]
 
 Bad input (a scene file, a config file, an argument) prints one line naming the problem on
@@ -17,10 +21,10 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from drake_clutter.generators import GenerationError
-from drake_clutter.typed_yaml import InputError
+from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
+from drake_clutter.scene.generators import GenerationError
 
-EXIT_USAGE = 2
+ALL_PLANNERS = "both"  # --planner: every registered planner, each list in the registry's order
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -39,14 +43,14 @@ def _add_config_args(parser: argparse.ArgumentParser) -> None:
 
 
 def _load_config(args):
-    from drake_clutter.config import load_config
+    from drake_clutter.common.config import load_config
 
     return load_config(args.config, args.overrides)
 
 
 def _cmd_scene_generate(args) -> int:
-    from drake_clutter.generators import generate_scene
-    from drake_clutter.scenes import save_scene
+    from drake_clutter.scene.generators import generate_scene
+    from drake_clutter.scene.scenes import save_scene
 
     config = _load_config(args)
     if args.objects < 1:
@@ -58,7 +62,7 @@ def _cmd_scene_generate(args) -> int:
 
 
 def _cmd_scene_validate(args) -> int:
-    from drake_clutter.scenes import load_scene
+    from drake_clutter.scene.scenes import load_scene
 
     scene = load_scene(args.file)
     print(f"{args.file}: ok ({scene.shelf.kind}, {len(scene.boxes)} boxes, target "
@@ -67,7 +71,7 @@ def _cmd_scene_validate(args) -> int:
 
 
 def _cmd_scene_list(args) -> int:
-    from drake_clutter.scenes import load_shipped_scene, shipped_scene_names
+    from drake_clutter.scene.scenes import load_shipped_scene, shipped_scene_names
 
     for name in shipped_scene_names():
         scene = load_shipped_scene(name)
@@ -77,8 +81,8 @@ def _cmd_scene_list(args) -> int:
 
 
 def _cmd_scene_show(args) -> int:
-    from drake_clutter.scenes import resolve_scene
-    from drake_clutter.viz import show_scene
+    from drake_clutter.scene.scenes import resolve_scene
+    from drake_clutter.viz.views import show_scene
 
     config = _load_config(args)
     scene = resolve_scene(args.scene)
@@ -91,13 +95,13 @@ def _cmd_evaluate(args) -> int:
     import json
     from pathlib import Path
 
-    from drake_clutter.evaluation import (
+    from drake_clutter.evaluation.judge import (
         check_plan,
         evaluate_candidates,
         outcome_table,
         outcomes_document,
     )
-    from drake_clutter.scenes import resolve_scene
+    from drake_clutter.scene.scenes import resolve_scene
     from drake_clutter.trajectory import load_plan
 
     config = _load_config(args)
@@ -121,48 +125,42 @@ def _cmd_plan(args) -> int:
     import dataclasses
     from pathlib import Path
 
-    from drake_clutter.baseline import candidates_table, check_config, plan_baseline
-    from drake_clutter.scenes import resolve_scene
+    from drake_clutter.common.typed_yaml import to_data
+    from drake_clutter.planners.registry import (
+        check_planners,
+        get_planner,
+        planner_names,
+        run_planners,
+    )
+    from drake_clutter.scene.scenes import resolve_scene
     from drake_clutter.trajectory import save_plan
-    from drake_clutter.typed_yaml import to_data
 
     config = _load_config(args)
     scene = resolve_scene(args.scene)
-    baseline = config.baseline
     if args.angles is not None:
         if args.angles < 1:
             raise InputError("<command line>", "--angles", f"must be at least 1, got {args.angles}")
-        baseline = dataclasses.replace(baseline, num_angles=args.angles)
+        config = dataclasses.replace(
+            config, baseline=dataclasses.replace(config.baseline, num_angles=args.angles))
     if not Path(args.out).resolve().parent.is_dir():
         raise InputError("<command line>", "--out", f"no such directory for {args.out}")
-    check_config(baseline, args.config or "<command line>")
-    candidates = plan_baseline(scene, baseline)
-    if args.planner != "baseline":
-        candidates = _physics_candidates(scene, config, candidates, args.planner)
+    names = planner_names() if args.planner == ALL_PLANNERS else (args.planner,)
+    check_planners(config, names, args.config or "<command line>")
+    plans = run_planners(scene, config, names)
+    candidates = [c for name in names for c in plans[name]]
     save_plan(args.out, scene.name, candidates,
-              extra={"planner": args.planner, "config": {"baseline": to_data(baseline),
+              extra={"planner": args.planner, "config": {"baseline": to_data(config.baseline),
                                                          "physics": to_data(config.physics)}})
-    print(candidates_table(candidates))
+    for name in names:
+        print(get_planner(name).table(plans[name]))
     ok = sum(c.ok for c in candidates)
     print(f"{ok} of {len(candidates)} angles ok ({scene.name}, {args.planner}); wrote {args.out}")
     return 0
 
 
-def _physics_candidates(scene, config, baseline_candidates, planner: str) -> list:
-    """The physics planner (Sec. V) on the baseline's candidates: its list, or with planner
-    "both" the baseline's followed by its own; prints a per-candidate stage table."""
-    from drake_clutter.physics import check_config as check_physics
-    from drake_clutter.physics import plan_physics, stages_table
-
-    check_physics(config)
-    physics = plan_physics(scene, config, baseline_candidates)
-    print(stages_table(physics))
-    return physics if planner == "physics" else list(baseline_candidates) + physics
-
-
 def _cmd_experiment_run(args) -> int:
-    from drake_clutter.executors import format_summary, run_experiment
-    from drake_clutter.experiments import load_spec
+    from drake_clutter.experiments.executors import format_summary, run_experiment
+    from drake_clutter.experiments.specs import load_spec
 
     spec, spec_file = load_spec(args.spec)
     if args.workers < 1:
@@ -174,8 +172,8 @@ def _cmd_experiment_run(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from drake_clutter.report import write_report
-    from drake_clutter.store import Store
+    from drake_clutter.experiments.report import write_report
+    from drake_clutter.experiments.store import Store
 
     with Store(args.db, create=False) as store:
         rows = store.rows()
@@ -185,8 +183,8 @@ def _cmd_report(args) -> int:
 
 
 def _cmd_config_show(args) -> int:
-    from drake_clutter.config import config_to_data
-    from drake_clutter.typed_yaml import dump_yaml
+    from drake_clutter.common.config import config_to_data
+    from drake_clutter.common.typed_yaml import dump_yaml
 
     print(dump_yaml(config_to_data(_load_config(args))), end="")
     return 0
@@ -194,7 +192,8 @@ def _cmd_config_show(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``drake-clutter``."""
-    from drake_clutter.robot_model import VARIANTS
+    from drake_clutter.planners.registry import planner_names
+    from drake_clutter.robot.pr2 import VARIANTS
 
     parser = _OneLineParser(prog="drake-clutter", description=__doc__.splitlines()[0])
     groups = parser.add_subparsers(dest="group", required=True, parser_class=_OneLineParser)
@@ -237,7 +236,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     plan = groups.add_parser("plan", help="plan approach trajectories for a scene (Sec. IV)")
     plan.add_argument("scene", help="a scene YAML file or a shipped scene name")
-    plan.add_argument("--planner", choices=("baseline", "physics", "both"), default="baseline",
+    plan.add_argument("--planner", choices=(*planner_names(), ALL_PLANNERS), default="baseline",
                       help="the planner (default: baseline, Sec. IV; physics: Sec. V from the "
                       "baseline's candidates; both: the two lists)")
     plan.add_argument("--angles", type=int,

@@ -16,15 +16,16 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass, field
+from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
 
-from drake_clutter import robot_model
-from drake_clutter.typed_yaml import InputError
+from drake_clutter.common.typed_yaml import InputError
+from drake_clutter.robot import pr2
 
 GRIPPER_COORDINATE = "r_gripper_opening"
-TRAJECTORY_JOINTS: tuple[str, ...] = robot_model.ARM_JOINTS + (GRIPPER_COORDINATE,)
+TRAJECTORY_JOINTS: tuple[str, ...] = pr2.ARM_JOINTS + (GRIPPER_COORDINATE,)
 PLAN_FORMAT = "drake_clutter.plan/1"
 
 
@@ -110,30 +111,43 @@ def trajectory_coordinates(q_robot: np.ndarray) -> np.ndarray:
     return np.concatenate([q_robot[..., :7], q_robot[..., 7:8] + q_robot[..., 8:9]], axis=-1)
 
 
-CANDIDATE_STATUSES = ("ok", "ik_failed", "optimisation_failed", "collision_check_failed",
-                      "planner_failure")
+class CandidateStatus(StrEnum):
+    """What became of one approach angle (the value is what plan files and stores hold)."""
+
+    OK = "ok"  # a usable trajectory
+    IK_FAILED = "ik_failed"  # no IK solution for the start or the pre-grasp pose (Sec. IV)
+    OPTIMISATION_FAILED = "optimisation_failed"  # the solver failed or lost the pre-grasp pose
+    COLLISION_CHECK_FAILED = "collision_check_failed"  # the dense shelf check found penetration
+    PLANNER_FAILURE = "planner_failure"  # the planner produced nothing
+
+
+CANDIDATE_STATUSES: tuple[str, ...] = tuple(s.value for s in CandidateStatus)
 
 
 @dataclass
 class Candidate:
-    """One approach angle's result: ``status`` is one of CANDIDATE_STATUSES ("ok" = usable)."""
+    """One approach angle's result: ``alpha`` (rad), its `CandidateStatus` (a plain string is
+    converted; an unknown one raises ValueError), why, the trajectory and timings (s)."""
 
     alpha: float
-    status: str
+    status: CandidateStatus
     reason: str = ""
     trajectory: Trajectory | None = None
     planner: str = "baseline"
     timings: dict[str, float] = field(default_factory=dict)
     details: dict = field(default_factory=dict)
 
+    def __post_init__(self):
+        self.status = CandidateStatus(self.status)
+
     @property
     def ok(self) -> bool:
         """True when the candidate carries a usable trajectory."""
-        return self.status == "ok" and self.trajectory is not None
+        return self.status == CandidateStatus.OK and self.trajectory is not None
 
     def to_data(self) -> dict:
         """JSON-ready dict."""
-        return {"alpha": self.alpha, "status": self.status, "reason": self.reason,
+        return {"alpha": self.alpha, "status": self.status.value, "reason": self.reason,
                 "planner": self.planner, "timings": dict(self.timings),
                 "details": self.details,
                 "trajectory": None if self.trajectory is None else self.trajectory.to_data()}

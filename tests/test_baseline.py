@@ -14,9 +14,10 @@ import pytest
 from pydrake.geometry import Role
 from pydrake.math import RigidTransform
 
-from drake_clutter import baseline as bl
-from drake_clutter import clearance as cl
-from drake_clutter.approach import (
+from drake_clutter.common.config import BaselineConfig, ConfigError
+from drake_clutter.planners import baseline as bl
+from drake_clutter.planners import clearance as cl
+from drake_clutter.planners.approach import (
     PoseIk,
     approach_angles,
     approach_poses,
@@ -25,12 +26,11 @@ from drake_clutter.approach import (
     ik_seeds,
     static_planning_world,
 )
-from drake_clutter.config import BaselineConfig, ConfigError
-from drake_clutter.generators import generate_scene
-from drake_clutter.robot_model import velocity_limits
-from drake_clutter.scenes import BoxObject, load_shipped_scene, shipped_scene_names
+from drake_clutter.robot.pr2 import velocity_limits
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.scene.scenes import BoxObject, load_shipped_scene, shipped_scene_names
 from drake_clutter.trajectory import TRAJECTORY_JOINTS, load_plan
-from drake_clutter.world import build_planning_world
+from drake_clutter.worlds.drake_world import build_planning_world
 
 REPO = Path(__file__).resolve().parents[1]
 CONFIG = BaselineConfig()
@@ -304,7 +304,7 @@ def test_dense_check_catches_a_crossing_between_knots(bookshelf, world, clearanc
 
 
 def test_target_only_scene_every_ik_feasible_angle_is_ok(bookshelf, bookshelf_plan):
-    """Issue 3: on a scene with only the target, every IK-feasible angle ends at the pre-grasp
+    """On a scene with only the target, every IK-feasible angle ends at the pre-grasp
     pose (1 mm, 0.01 rad) and passes a dense check (here an independent one, 20 per interval)."""
     feasible = [c for c in bookshelf_plan if c.status != "ik_failed"]
     assert len(feasible) >= 6, [c.reason for c in bookshelf_plan]
@@ -352,7 +352,7 @@ def test_the_optimisation_repairs_a_penetrating_straight_line(bookshelf_plan):
 
 
 def test_fridge_angles_crossing_a_side_wall_are_never_returned_penetrating():
-    """Issue 3: on a refrigerator scene, an angle whose straight line crosses a side wall is
+    """On a refrigerator scene, an angle whose straight line crosses a side wall is
     routed around it or discarded; a returned path never penetrates (independent check)."""
     scene = _target_only(generate_scene("fridge", 1, seed=2))
     x0, _, y0, y1 = scene.shelf.interior_bounds()

@@ -22,12 +22,12 @@ from matplotlib.colors import rgb_to_hsv
 from matplotlib.image import imread
 from pydrake.geometry import Meshcat
 
-from drake_clutter.baseline import plan_baseline
-from drake_clutter.config import Config
-from drake_clutter.evaluation import evaluate
-from drake_clutter.replay import PlanView, look_at_copies, record_replay
-from drake_clutter.scenes import DEFAULT_SCENE, load_shipped_scene
-from drake_clutter.viz import write_static_html
+from drake_clutter.common.config import Config
+from drake_clutter.evaluation.judge import evaluate
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.scene.scenes import DEFAULT_SCENE, load_shipped_scene
+from drake_clutter.viz.replay import PlanView, look_at_copies, record_replay
+from drake_clutter.viz.views import write_static_html
 
 REPO = Path(__file__).resolve().parents[1]
 WINDOW = (800, 600)  # px; software WebGL: rendering cost grows with the area

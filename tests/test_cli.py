@@ -9,13 +9,13 @@ from pathlib import Path
 import pytest
 
 from drake_clutter.cli import main
-from drake_clutter.scenes import (
+from drake_clutter.scene.scenes import (
     DEFAULT_SCENE,
     load_scene,
     load_shipped_scene,
     shipped_scene_names,
 )
-from drake_clutter.viz import static_html_paths
+from drake_clutter.viz.views import static_html_paths
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -80,7 +80,7 @@ def test_impossible_generation_is_one_line_exit_1(tmp_path):
 
 def test_bad_scene_file_names_file_and_field(tmp_path):
     bad = tmp_path / "bad.yaml"
-    bad.write_text((REPO / "drake_clutter/scenes_data/fig5_large_small.yaml").read_text()
+    bad.write_text((REPO / "drake_clutter/scene/shipped/fig5_large_small.yaml").read_text()
                    .replace("density: 150.0", "density: -150.0"))
     result = _run("scene", "validate", str(bad))
     assert result.returncode == 2

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from drake_clutter.config import ConfigError, load_config
+from drake_clutter.common.config import ConfigError, load_config
 
 
 def test_defaults_hold_the_paper_clutter_levels():

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from drake_clutter import costs
+from drake_clutter.planners.physics import costs
 
 STEP = np.finfo(float).eps ** (1 / 3)
 RNG = np.random.default_rng(1)
@@ -132,7 +132,7 @@ def test_upright_majorizer_keeps_value_and_gradient_and_adds_curvature(tilt):
 
 
 def test_grasp_distance_majorizer_lies_above_the_distance():
-    from drake_clutter.physics_costs import grasp_distance
+    from drake_clutter.planners.physics.objective import grasp_distance
 
     eps = 0.005
     target = np.array([0.8, 0.0, 0.8])

@@ -1,4 +1,4 @@
-"""phi's Jacobians (derivatives.py): colouring, known blocks, workers, stride, and agreement
+"""phi's Jacobians (phi/derivatives.py): colouring, known blocks, workers, stride, and agreement
 with brute-force finite differences and with Drake's AutoDiffXd."""
 
 from __future__ import annotations
@@ -7,14 +7,12 @@ import dataclasses
 
 import numpy as np
 import pytest
-from reach_paths import straight_reach
 
-from drake_clutter.config import DynamicsConfig
-from drake_clutter.derivative_groups import colour_groups, components, dense_jacobians, node_columns
-from drake_clutter.derivative_workers import WorkerPool
-from drake_clutter.derivatives import PhiDynamics, differentiated_knots, interpolate_between
-from drake_clutter.derivatives_autodiff import AutoDiffPhi
-from drake_clutter.dynamics import (
+from drake_clutter.common.config import DynamicsConfig
+from drake_clutter.phi.autodiff import AutoDiffPhi
+from drake_clutter.phi.colouring import colour_groups, components, dense_jacobians, node_columns
+from drake_clutter.phi.derivatives import PhiDynamics, differentiated_knots, interpolate_between
+from drake_clutter.phi.dynamics import (
     ARM_DIM,
     ARM_NODE,
     Phi,
@@ -23,8 +21,10 @@ from drake_clutter.dynamics import (
     make_spec,
     scene_box_states,
 )
-from drake_clutter.generators import generate_scene
-from drake_clutter.pruning import make_pruned_spec
+from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.workers import WorkerPool
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.testing.reach_paths import straight_reach
 
 
 def _setup(num_boxes: int, seed: int, **config):
@@ -176,7 +176,7 @@ def test_parallel_workers_give_the_serial_bits():
 def test_a_dead_worker_raises_instead_of_hanging_and_the_pool_restarts():
     import os
 
-    from drake_clutter.derivative_workers import WorkerDied
+    from drake_clutter.phi.workers import WorkerDied
 
     with WorkerPool(2) as pool:
         assert pool.run(abs, [-1, 2, -3]) == [1, 2, 3]
@@ -229,7 +229,7 @@ def test_finite_differences_agree_with_autodiff(hydro10):
 def test_seeded_autodiff_is_the_full_jacobian_times_the_seeds(hydro10):
     """AutoDiffXd seeded with colour groups gives J S exactly (state and force rows), and
     agrees with the groups' finite differences."""
-    from drake_clutter.derivative_groups import group_autodiff, group_differences, group_seeds
+    from drake_clutter.phi.colouring import group_autodiff, group_differences, group_seeds
 
     dynamics, xs, us = hydro10
     t = 6  # the arm pushes box_06
@@ -291,7 +291,7 @@ def test_a_failed_autodiff_knot_is_differenced_instead(hydro10, monkeypatch):
 
 
 def test_autodiff_with_point_contact_is_a_config_error():
-    from drake_clutter.config import ConfigError
+    from drake_clutter.common.config import ConfigError
 
     scene = generate_scene("bookshelf", 2, seed=0)
     config = DynamicsConfig(workers=0, contact_model="point", derivative_method="autodiff")
@@ -304,7 +304,7 @@ def test_autodiff_with_hunt_crossley_contact_is_a_config_error(method):
     """Measured (10 boxes, the tests' reach): under world.contact_approximation "similar"
     seeded AutoDiffXd differed from the full AutoDiffXd Jacobian times the seeds by 106x
     (relative) and finite differences from AutoDiffXd by a median of 65x."""
-    from drake_clutter.config import ConfigError, WorldConfig
+    from drake_clutter.common.config import ConfigError, WorldConfig
 
     scene = generate_scene("bookshelf", 2, seed=0)
     spec = make_spec(scene, [], config=DynamicsConfig(workers=0, derivative_method=method),
@@ -328,8 +328,8 @@ def test_hunt_crossley_rollouts_are_linearised_with_sap(hydro10):
     (README: planning with Hunt-Crossley phi), the SAP copy's are not. Measured here: AutoDiffXd
     against the reference <= 2.5e-8; median whole-Jacobian distance from it 3.1e-4 for the SAP
     copy's forward differences, 207 for Hunt-Crossley's own."""
-    from drake_clutter.config import WorldConfig
-    from drake_clutter.derivatives import derivative_spec
+    from drake_clutter.common.config import WorldConfig
+    from drake_clutter.phi.derivatives import derivative_spec
 
     dynamics, xs, us = hydro10
     world = WorldConfig(contact_approximation="similar")

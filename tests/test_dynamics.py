@@ -1,4 +1,4 @@
-"""phi (dynamics.py) and pruning (pruning.py): state layout, step, rollout, pruning."""
+"""phi (phi/dynamics.py) and pruning (phi/pruning.py): state layout, step, rollout, pruning."""
 
 from __future__ import annotations
 
@@ -6,10 +6,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from reach_paths import straight_reach
 
-from drake_clutter.config import ConfigError, DynamicsConfig, WorldConfig
-from drake_clutter.dynamics import (
+from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig
+from drake_clutter.phi.dynamics import (
     ARM_DIM,
     Phi,
     StateLayout,
@@ -18,8 +17,9 @@ from drake_clutter.dynamics import (
     pose_to_box_state,
     scene_box_states,
 )
-from drake_clutter.generators import generate_scene
-from drake_clutter.pruning import make_pruned_spec, prune, swept_samples
+from drake_clutter.phi.pruning import make_pruned_spec, prune, swept_samples
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.testing.reach_paths import straight_reach
 from drake_clutter.trajectory import robot_positions
 
 finite = st.floats(-1.0, 1.0, allow_nan=False)
@@ -258,17 +258,18 @@ def test_a_box_pressed_into_the_shelf_has_a_force_a_resting_one_has_none(pruned1
 
 @pytest.mark.parametrize("approximation", [
     "similar",
-    pytest.param("sap", marks=pytest.mark.xfail(strict=True, reason=(
-        "a known limit of phi's fidelity (issue 6; issue 5 ended blocked): under SAP's "
-        "linear dissipation the board throws a toppling thin box 2-3 m up (measured at every "
-        "spin 2-8 rad/s; also on fig5's baseline plan, where Bullet lays it 16.5 cm away); "
-        "Hunt-Crossley ('similar') does not, but its AutoDiffXd derivatives are unusable, so "
-        "phi stays on SAP")))])
+    pytest.param("sap", marks=pytest.mark.xfail(strict=True, reason="phi's fidelity: SAP's "
+                                                "linear dissipation throws a toppling box up"))])
 def test_a_toppling_thin_box_lands_on_the_board(approximation):
     """fig5's small_tippy (3.5 x 3.5 x 22 cm) set tipping at 4 rad/s, alone in phi with the
     arm parked, must land lying on the board about its height away, as Bullet has it (16.5 cm
-    on fig5's baseline plan; "similar" measured 16-18 cm at spins 2-8 rad/s)."""
-    from drake_clutter import scenes
+    on fig5's baseline plan; "similar" measured 16-18 cm at spins 2-8 rad/s).
+
+    A known limit of phi's fidelity under SAP: its linear dissipation makes the board throw a
+    toppling thin box 2-3 m up (measured at every spin 2-8 rad/s; also on fig5's baseline
+    plan, where Bullet lays it 16.5 cm away). Hunt-Crossley ('similar') does not, but its
+    AutoDiffXd derivatives are unusable, so phi stays on SAP."""
+    from drake_clutter.scene import scenes
 
     scene = scenes.load_shipped_scene("fig5_large_small")
     spec = make_spec(scene, ["small_tippy"], config=DynamicsConfig(workers=0),
@@ -293,7 +294,7 @@ def test_a_thin_box_the_arm_never_touches_stays_upright_while_the_arm_swings():
     no contact reaches it, so it must stay where it stands. Measured at 40 ms SAP steps: its
     rocking mode is under-resolved, solver noise from the moving arm grows ~3x a knot and it
     topples (15 deg) untouched; at 20 ms (substeps 10) it stays at 0.2 deg."""
-    from drake_clutter import scenes
+    from drake_clutter.scene import scenes
 
     scene = scenes.load_shipped_scene("fig7_cascade")
     spec = make_spec(scene, ["domino_3"], config=DynamicsConfig(workers=0))

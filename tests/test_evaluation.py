@@ -16,15 +16,9 @@ from dataclasses import replace
 import numpy as np
 import pybullet as pb
 import pytest
-from pydrake.math import RotationMatrix
-from pydrake.multibody.inverse_kinematics import InverseKinematics
-from pydrake.solvers import Solve
 
-from drake_clutter import bullet_world as bw
-from drake_clutter import robot_model
 from drake_clutter.cli import main
-from drake_clutter.config import EvaluationConfig
-from drake_clutter.evaluation import (
+from drake_clutter.evaluation.judge import (
     OUTCOME_KINDS,
     Outcome,
     classify,
@@ -37,113 +31,36 @@ from drake_clutter.evaluation import (
     tilt_angle,
     zone_extent,
 )
-from drake_clutter.generators import generate_scene
-from drake_clutter.scenes import (
-    BoxObject,
+from drake_clutter.robot import pr2
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.scene.scenes import (
     RobotPlacement,
     Scene,
-    Shelf,
-    Walls,
     save_scene,
     validate_scene,
 )
-from drake_clutter.trajectory import Candidate, Trajectory, save_plan, trajectory_coordinates
-from drake_clutter.world import build_planning_world
-
-CONFIG = EvaluationConfig()
-BOOKSHELF = Shelf("bookshelf", depth=0.4, width=0.8, thickness=0.03, top_height=0.75,
-                  center_xy=(0.6, 0.0))
-FRIDGE = Shelf("fridge", depth=0.4, width=0.6, thickness=0.03, top_height=0.75,
-               center_xy=(0.6, 0.0), walls=Walls(thickness=0.02, height=0.36))
-ROBOT = RobotPlacement(base_pose=(0.0, 0.188, 0.0), torso_height=0.2093)  # shoulder at y = 0
-HAND_Z = 0.85  # m, tool frame height: 10 cm above the boards, clear of their front edges
-NOMINAL_ARM = (-0.7, 0.9, -1.5, -2.1, 2.3, -1.2, -2.0)  # rad, elbow out to the right
-
-
-def _box(name, size, xy, density=300.0, friction=0.5):
-    return BoxObject(name, size, (xy[0], xy[1], 0.0), density, friction)
-
-
-def _scene(name, shelf, boxes) -> Scene:
-    return validate_scene(Scene(name, shelf, ROBOT, "target", tuple(boxes)))
-
-
-def _target(xy, size=(0.05, 0.05, 0.15)):
-    return _box("target", size, xy)
-
-
-class _Reach:
-    """IK for a horizontal gripper facing +x at HAND_Z on a scene's planning world."""
-
-    def __init__(self, scene: Scene):
-        self.world = build_planning_world(scene)
-        plant = self.world.plant
-        self.context = plant.GetMyMutableContextFromRoot(
-            self.world.diagram.CreateDefaultContext())
-        self.q_default = plant.GetPositions(self.context)
-        self.robot = self.world.robot_position_indices()
-        self.others = np.setdiff1d(np.arange(len(self.q_default)), self.robot)
-
-    def solve(self, p_WG, opening, q_guess, q_near):
-        plant, idx = self.world.plant, self.robot
-        ik = InverseKinematics(plant, self.context, with_joint_limits=True)
-        q = ik.q()
-        ik.AddPositionConstraint(self.world.tool_frame, [0, 0, 0], plant.world_frame(),
-                                 p_WG - 1e-4, p_WG + 1e-4)
-        ik.AddOrientationConstraint(plant.world_frame(), RotationMatrix(), self.world.tool_frame,
-                                    RotationMatrix(), 1e-3)
-        prog = ik.get_mutable_prog()
-        fixed = self.q_default[self.others]
-        prog.AddBoundingBoxConstraint(fixed, fixed, q[self.others])
-        prog.AddBoundingBoxConstraint([opening / 2] * 2, [opening / 2] * 2, q[idx[7:]])
-        prog.AddQuadraticErrorCost(np.eye(7), q_near, q[idx[:7]])
-        guess = self.q_default.copy()
-        guess[idx] = np.r_[q_guess, opening / 2, opening / 2]
-        prog.SetInitialGuess(q, guess)
-        result = Solve(prog)
-        return result.GetSolution(q)[idx] if result.is_success() else None
-
-    def first(self, p_WG, opening):
-        rng = np.random.default_rng(0)
-        low = np.maximum(self.world.plant.GetPositionLowerLimits()[self.robot[:7]], -3.0)
-        high = np.minimum(self.world.plant.GetPositionUpperLimits()[self.robot[:7]], 3.0)
-        guess = np.array(NOMINAL_ARM)
-        for _ in range(30):
-            q = self.solve(p_WG, opening, guess, np.array(NOMINAL_ARM))
-            if q is not None:
-                return q
-            guess = rng.uniform(low, high)
-        raise AssertionError(f"no IK solution at {p_WG}")
-
-
-def scripted_reach(scene: Scene, waypoints, speed=0.1, opening=0.09, step=0.01,
-                   z=HAND_Z) -> Trajectory:
-    """The tool frame through (x, y) waypoints (W) at height ``z``, straight segments at
-    ``speed`` m/s, the gripper open by ``opening`` m: IK every ``step`` m, linear in joint
-    space between."""
-    points = [np.array([*waypoints[0], z])]
-    for a, b in zip(waypoints[:-1], waypoints[1:], strict=True):
-        a, b = np.array([*a, z]), np.array([*b, z])
-        n = max(1, math.ceil(np.linalg.norm(b - a) / step))
-        points += [a + (b - a) * k / n for k in range(1, n + 1)]
-    reach = _Reach(scene)
-    q = reach.first(points[0], opening)
-    rows = [q]
-    for p in points[1:]:
-        q = reach.solve(p, opening, q[:7], q[:7])
-        assert q is not None, f"no IK solution at {p}"
-        rows.append(q)
-    times = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1))] / speed
-    return Trajectory(times, trajectory_coordinates(np.array(rows)))
-
+from drake_clutter.testing.handmade import (
+    BOOKSHELF,
+    CONFIG,
+    FRIDGE,
+    NOMINAL_ARM,
+    ROBOT,
+    make_box,
+    make_scene,
+    make_target,
+    scripted_reach,
+)
+from drake_clutter.trajectory import Candidate, Trajectory, save_plan
+from drake_clutter.worlds import bullet_world as bw
+from drake_clutter.worlds.drake_world import build_planning_world
 
 # ----------------------------------------------------------------------------- hand-made cases
 
 
 @pytest.fixture(scope="module")
 def clean_reach():
-    scene = _scene("clean_reach", BOOKSHELF, [_target((0.58, 0.0)),
-                                              _box("far", (0.06, 0.06, 0.12), (0.7, 0.3))])
+    scene = make_scene("clean_reach", BOOKSHELF, [make_target((0.58, 0.0)),
+                                              make_box("far", (0.06, 0.06, 0.12), (0.7, 0.3))])
     return scene, scripted_reach(scene, [(0.45, 0.0), (0.58, 0.0)])
 
 
@@ -204,8 +121,8 @@ def test_reach_that_stops_short_is_failure_to_grasp(clean_reach):
 
 
 def test_other_box_between_the_fingers_is_failure_to_grasp():
-    scene = _scene("two_in_hand", BOOKSHELF, [_target((0.6, -0.015), (0.05, 0.04, 0.15)),
-                                              _box("thin", (0.05, 0.02, 0.12), (0.6, 0.025))])
+    scene = make_scene("two_in_hand", BOOKSHELF, [make_target((0.6, -0.015), (0.05, 0.04, 0.15)),
+                                              make_box("thin", (0.05, 0.02, 0.12), (0.6, 0.025))])
     outcome = evaluate(scene, scripted_reach(scene, [(0.45, 0.0), (0.6, 0.0)]), CONFIG)
     assert outcome.kind == "failure_to_grasp", outcome.reason
     assert outcome.grasp.intruders == ("thin",)
@@ -218,8 +135,8 @@ def test_other_box_between_the_fingers_is_failure_to_grasp():
 def test_sweep_that_tips_a_tall_thin_box_is_partial_success():
     # The hand sweeps +y through a 2.5 cm thin, 22 cm tall box (it topples away, towards +y,
     # and stays on the board), comes back and reaches the target on the other side.
-    scene = _scene("topple", BOOKSHELF, [_target((0.6, -0.15)),
-                                         _box("tall", (0.08, 0.025, 0.22), (0.47, 0.0),
+    scene = make_scene("topple", BOOKSHELF, [make_target((0.6, -0.15)),
+                                         make_box("tall", (0.08, 0.025, 0.22), (0.47, 0.0),
                                               friction=0.6)])
     path = [(0.43, -0.1), (0.47, -0.1), (0.47, 0.07), (0.47, -0.15), (0.6, -0.15)]
     outcome = evaluate(scene, scripted_reach(scene, path), CONFIG)
@@ -230,8 +147,8 @@ def test_sweep_that_tips_a_tall_thin_box_is_partial_success():
 
 
 def test_push_off_the_bookshelf_edge_is_objects_falling():
-    scene = _scene("push_off", BOOKSHELF, [_target((0.6, 0.1)),
-                                           _box("edge", (0.06, 0.06, 0.10), (0.5, -0.33))])
+    scene = make_scene("push_off", BOOKSHELF, [make_target((0.6, 0.1)),
+                                           make_box("edge", (0.06, 0.06, 0.10), (0.5, -0.33))])
     outcome = evaluate(scene, scripted_reach(scene, [(0.43, -0.2), (0.5, -0.2), (0.5, -0.45)]),
                        CONFIG)
     assert outcome.kind == "objects_falling", outcome.reason
@@ -241,7 +158,7 @@ def test_push_off_the_bookshelf_edge_is_objects_falling():
 
 
 def test_hand_through_a_refrigerator_wall_is_kinematic_failure():
-    scene = _scene("through_wall", FRIDGE, [_target((0.6, 0.1))])
+    scene = make_scene("through_wall", FRIDGE, [make_target((0.6, 0.1))])
     trajectory = scripted_reach(scene, [(0.43, -0.1), (0.5, -0.1), (0.5, -0.35)])
     outcome = evaluate(scene, trajectory, CONFIG, lift=True)
     assert outcome.kind == "kinematic_failure", outcome.reason
@@ -253,8 +170,8 @@ def test_hand_through_a_refrigerator_wall_is_kinematic_failure():
 
 def test_box_pressed_into_the_back_wall_is_kinematic_failure():
     # A box wider than the open gripper, shoved into the fridge's back wall by the fingertips.
-    scene = _scene("press", FRIDGE, [_target((0.6, 0.15)),
-                                     _box("block", (0.06, 0.12, 0.10), (0.72, -0.1), 500.0)])
+    scene = make_scene("press", FRIDGE, [make_target((0.6, 0.15)),
+                                     make_box("block", (0.06, 0.12, 0.10), (0.72, -0.1), 500.0)])
     outcome = evaluate(scene, scripted_reach(scene, [(0.43, -0.1), (0.76, -0.1)]), CONFIG)
     assert outcome.kind == "kinematic_failure", outcome.reason
     assert "box 'block' pushed into static geometry" in outcome.reason
@@ -337,7 +254,7 @@ def test_scene_score_follows_sec_vi_b():
 def test_pre_grasp_zone_known_answers():
     size = (0.05, 0.05, 0.15)
     centre, half = zone_extent(0.09, CONFIG)
-    pad_x0 = robot_model.PAD_CENTER_X - robot_model.PAD_SIZE[0] / 2 - robot_model.TOOL_OFFSET
+    pad_x0 = pr2.PAD_CENTER_X - pr2.PAD_SIZE[0] / 2 - pr2.TOOL_OFFSET
     assert centre[0] - half[0] == pytest.approx(pad_x0 - CONFIG.zone_margin)
     assert half[1] == pytest.approx(0.045) and half[2] == pytest.approx(0.011)
     assert target_zone_reason((0.0, 0.0, 0.0), np.eye(3), size, 0.09, CONFIG) == ""
@@ -357,7 +274,7 @@ def test_tilt_and_off_board_known_answers():
     assert tilt_angle(np.eye(3)) == 0.0
     p = np.array([[0.6, 0.0, 0.8], [0.81, 0.0, 0.8], [0.6, -0.41, 0.8], [0.6, 0.0, 0.1]])
     assert off_the_board(validate_scene(Scene("s", BOOKSHELF, ROBOT, "t", (
-        _box("t", (0.05, 0.05, 0.1), (0.6, 0.0)),))), p).tolist() == [False, True, True, True]
+        make_box("t", (0.05, 0.05, 0.1), (0.6, 0.0)),))), p).tolist() == [False, True, True, True]
 
 
 def test_plan_limit_checks():

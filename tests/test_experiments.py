@@ -1,4 +1,4 @@
-"""Experiment specs, tiers, work units, the unit worker and the executors (issue 7)."""
+"""Experiment specs, tiers, work units, the unit worker and the executors (Sec. VI-B)."""
 
 from __future__ import annotations
 
@@ -8,15 +8,15 @@ import sqlite3
 import pytest
 
 from drake_clutter.cli import main
-from drake_clutter.config import load_config
-from drake_clutter.executors import (
+from drake_clutter.common.config import load_config
+from drake_clutter.experiments.executors import (
     DEAD_WORKER_REASON,
     format_summary,
     run_experiment,
     run_local,
     run_ray,
 )
-from drake_clutter.experiments import (
+from drake_clutter.experiments.specs import (
     TIERS,
     SpecError,
     config_hash,
@@ -26,7 +26,7 @@ from drake_clutter.experiments import (
     run_unit,
     split_wall_times,
 )
-from drake_clutter.store import Store
+from drake_clutter.experiments.store import Store
 
 CRASH_SCENE = "crash_me"
 

@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drake_clutter.config import GeneratorConfig
-from drake_clutter.generators import (
+from drake_clutter.common.config import GeneratorConfig
+from drake_clutter.scene.generators import (
     board_coverage,
     free_spots,
     generate_scene,
     scene_set,
     shoulder_xy,
 )
-from drake_clutter.scenes import footprints_overlap, save_scene, validate_scene
+from drake_clutter.scene.scenes import footprints_overlap, save_scene, validate_scene
 
 
 def _assert_inside_and_disjoint(scene):

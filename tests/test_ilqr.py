@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drake_clutter.ilqr import Expansion, ILQRSettings, rollout, solve, zero_nonfinite
+from drake_clutter.solvers.ilqr import Expansion, ILQRSettings, rollout, solve, zero_nonfinite
 
 
 class LinearDynamics:
@@ -166,7 +166,7 @@ def test_solver_imports_no_pydrake():
     import subprocess
     import sys
 
-    code = "import sys, drake_clutter.ilqr; print('pydrake' in sys.modules)"
+    code = "import sys, drake_clutter.solvers.ilqr; print('pydrake' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
 
@@ -395,7 +395,7 @@ class BatchedPendulum(Pendulum):
         self.batches = []
 
     def forward_passes(self, xs, us, k, K, alphas, lo, hi, limit):
-        from drake_clutter.ilqr import forward_pass
+        from drake_clutter.solvers.ilqr import forward_pass
 
         self.batches.append(list(alphas))
         return [forward_pass(self, xs, us, k, K, a, lo, hi, None, limit) for a in alphas]

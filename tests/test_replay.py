@@ -1,5 +1,5 @@
 """The recording of the Bullet replay (evaluation.evaluate(record_fps=...)) and the Meshcat
-animation built from it (replay.py)."""
+animation built from it (viz/replay.py)."""
 
 from __future__ import annotations
 
@@ -8,14 +8,21 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from pydrake.geometry import Meshcat
-from test_evaluation import BOOKSHELF, CONFIG, _box, _scene, _target, scripted_reach
 
-from drake_clutter.config import Config
-from drake_clutter.evaluation import evaluate, tilt_angle
-from drake_clutter.recording import Recorder, Recording
-from drake_clutter.replay import PlanView, arrow_frames, box_states, copy_offset, record_replay
+from drake_clutter.common.config import Config
+from drake_clutter.evaluation.judge import evaluate, tilt_angle
+from drake_clutter.evaluation.recording import Recorder, Recording
+from drake_clutter.testing.handmade import (
+    BOOKSHELF,
+    CONFIG,
+    make_box,
+    make_scene,
+    make_target,
+    scripted_reach,
+)
 from drake_clutter.trajectory import Candidate
-from drake_clutter.viz import static_html_paths
+from drake_clutter.viz.replay import PlanView, arrow_frames, box_states, copy_offset, record_replay
+from drake_clutter.viz.views import static_html_paths
 
 FPS = 30.0
 CFG = Config()
@@ -31,8 +38,8 @@ def _rotation(q_wxyz: np.ndarray) -> np.ndarray:
 @pytest.fixture(scope="module")
 def topple():
     """The sweep of test_evaluation that tips a tall thin box (partial success)."""
-    scene = _scene("topple", BOOKSHELF, [_target((0.6, -0.15)),
-                                         _box("tall", (0.08, 0.025, 0.22), (0.47, 0.0),
+    scene = make_scene("topple", BOOKSHELF, [make_target((0.6, -0.15)),
+                                         make_box("tall", (0.08, 0.025, 0.22), (0.47, 0.0),
                                               friction=0.6)])
     path = [(0.43, -0.1), (0.47, -0.1), (0.47, 0.07), (0.47, -0.15), (0.6, -0.15)]
     trajectory = scripted_reach(scene, path)

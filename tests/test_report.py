@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from drake_clutter.cli import main
-from drake_clutter.report import (
+from drake_clutter.experiments.report import (
     PAPER_TABLE_III,
     paired_comparison,
     paired_rows,
@@ -17,7 +17,7 @@ from drake_clutter.report import (
     table_iv,
     write_report,
 )
-from drake_clutter.store import Store
+from drake_clutter.experiments.store import Store
 
 # (env, objects, seed) -> per planner, the outcome kinds of its angles.
 SCENES = {

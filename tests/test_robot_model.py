@@ -1,4 +1,4 @@
-"""Tests of drake_clutter.robot_model: generated URDFs, Drake/pybullet agreement, geometry."""
+"""Tests of drake_clutter.robot.pr2: generated URDFs, Drake/pybullet agreement, geometry."""
 
 import math
 import xml.etree.ElementTree as ET
@@ -14,7 +14,7 @@ from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import PrismaticJoint, RevoluteJoint
 from pydrake.systems.framework import DiagramBuilder
 
-from drake_clutter import robot_model as rm
+from drake_clutter.robot import pr2 as rm
 
 MOVABLE = (rm.TORSO_JOINT, *rm.ARM_JOINTS, *rm.FINGER_JOINTS)
 LINKS = tuple(link.name for link in rm.LINKS)
@@ -79,7 +79,7 @@ def test_checked_in_urdf_matches_generator(variant):
     path = rm.urdf_file(variant)
     assert path.name == f"pr2_arm_{variant}.urdf"
     assert path.read_text(encoding="utf-8") == rm.urdf_text(variant), (
-        "regenerate with: python -m drake_clutter.robot_model --write models/urdf")
+        "regenerate with: python -m drake_clutter.robot.pr2 --write models/urdf")
 
 
 def test_write_urdfs_and_main(tmp_path):

@@ -9,8 +9,9 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from drake_clutter.generators import generate_scene
-from drake_clutter.scenes import (
+from drake_clutter.common.typed_yaml import to_data
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.scene.scenes import (
     SceneError,
     load_scene,
     load_shipped_scene,
@@ -20,7 +21,6 @@ from drake_clutter.scenes import (
     scene_to_text,
     shipped_scene_names,
 )
-from drake_clutter.typed_yaml import to_data
 
 
 @pytest.fixture(scope="module")

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from drake_clutter.cli import main
-from drake_clutter.experiments import failure_result
-from drake_clutter.store import Store, StoreError
+from drake_clutter.experiments.specs import failure_result
+from drake_clutter.experiments.store import Store, StoreError
 
 REPO = Path(__file__).resolve().parents[1]
 

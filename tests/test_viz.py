@@ -1,4 +1,4 @@
-"""Cost curves of physics plans (cost_curves.py) and apps/plan_scene.py's replay output,
+"""Cost curves of physics plans (viz/cost_curves.py) and apps/plan_scene.py's replay output,
 serving and errors (the replay itself: test_replay.py; in a browser: test_browser.py)."""
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
-from drake_clutter.cost_curves import plot_cost_curves, stage_curves
-from drake_clutter.scenes import DEFAULT_SCENE, load_shipped_scene
+from drake_clutter.scene.scenes import DEFAULT_SCENE, load_shipped_scene
 from drake_clutter.trajectory import Candidate
-from drake_clutter.viz import static_html_paths
+from drake_clutter.viz.cost_curves import plot_cost_curves, stage_curves
+from drake_clutter.viz.views import static_html_paths
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -85,7 +85,7 @@ def test_cost_curve_png_has_one_panel_per_stage(tmp_path):
 
 
 def test_unwritable_cost_curve_file_is_an_input_error(tmp_path):
-    from drake_clutter.typed_yaml import InputError
+    from drake_clutter.common.typed_yaml import InputError
 
     with pytest.raises(InputError, match="cannot write the cost curves"):
         plot_cost_curves(_physics_candidate(), tmp_path / "missing" / "costs.png")

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from pydrake.multibody.plant import DiscreteContactApproximation
 
-from drake_clutter import robot_model
-from drake_clutter.config import WorldConfig
-from drake_clutter.generators import generate_scene
-from drake_clutter.scenes import load_shipped_scene
-from drake_clutter.shelf_model import default_shelves, shelf_sdf
-from drake_clutter.world import (
+from drake_clutter.common.config import WorldConfig
+from drake_clutter.robot import pr2
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.scene.scenes import load_shipped_scene
+from drake_clutter.scene.shelf import default_shelves, shelf_sdf
+from drake_clutter.worlds.drake_world import (
     ROBOT_JOINTS,
     build_dynamics_world,
     build_planning_world,
@@ -29,21 +29,21 @@ def dense_scene():
 
 def test_checked_in_shelf_sdfs_match_generator():
     for kind, shelf in default_shelves().items():
-        with open(robot_model.repo_root() / "sdf" / f"{kind}.sdf", encoding="utf-8") as f:
+        with open(pr2.repo_root() / "sdf" / f"{kind}.sdf", encoding="utf-8") as f:
             assert f.read() == shelf_sdf(shelf), f"sdf/{kind}.sdf is stale: regenerate it"
 
 
-@pytest.mark.parametrize("variant", robot_model.VARIANTS)
+@pytest.mark.parametrize("variant", pr2.VARIANTS)
 def test_planning_world_has_arm_boxes_and_welded_torso(variant):
     scene = load_shipped_scene("fig7_cascade")
     world = build_planning_world(scene, variant)
     plant = world.plant
     assert plant.num_positions() == 9 + 7 * len(scene.boxes)  # 9 robot joints + free boxes
-    assert not plant.HasJointNamed(robot_model.TORSO_JOINT)
+    assert not plant.HasJointNamed(pr2.TORSO_JOINT)
     context = plant.CreateDefaultContext()
     # The shoulder-pan axis sits at the torso height the scene asks for.
     X_WS = plant.GetFrameByName("r_shoulder_pan_link").CalcPoseInWorld(context)
-    expected_z = robot_model.SHOULDER_PAN_HEIGHT_AT_ZERO_TORSO + scene.robot.torso_height
+    expected_z = pr2.SHOULDER_PAN_HEIGHT_AT_ZERO_TORSO + scene.robot.torso_height
     assert X_WS.translation()[2] == pytest.approx(expected_z, abs=1e-9)
     for box in scene.boxes:
         p = world.X_WBox(context, box.name).translation()
@@ -121,8 +121,8 @@ def test_box_friction_pairs_like_the_judge(as_bullet):
     box keeps the scene's mu. The dynamics world carries that coefficient."""
     from pydrake.geometry import Role
 
-    from drake_clutter.shelf_model import SHELF_FRICTION
-    from drake_clutter.world import box_friction
+    from drake_clutter.scene.shelf import SHELF_FRICTION
+    from drake_clutter.worlds.drake_world import box_friction
 
     config = WorldConfig(friction_as_bullet=as_bullet)
     for mu in (0.4, 0.6, 0.8):

@@ -1,0 +1,405 @@
+"""Reports of an experiment store: Tables III and IV and Fig. 9 of Sec. VI-B, beside the paper's.
+
+Definitions (Sec. VI-B), per (configuration, planner):
+
+* Scene score: success if any approach angle's trajectory succeeded, partial success if the
+  best was a partial success, else failure (`judge.scene_score` over the scene's rows,
+  every stored angle of the scene counted).
+* Table III: per environment (bookshelf, refrigerator) and in aggregate, the percentage of
+  scenes whose score is success or partial success, and in parentheses the percentage whose
+  score is partial success - the paper's "76.7% (8.3%)" is 46 of 60 and 5 of 60 scenes.
+* Table IV: the outcome distribution over the trajectories the planner returned (the paper's
+  918: angles with an IK solution). Rows of kind ``planner_failure`` (no trajectory: IK or
+  optimisation failed, or the unit raised) are outside the distribution and counted apart.
+* Fig. 9a/9b: per environment, the percentage of scenes with score success (solid) and with
+  success or partial success (dashed) against the number of objects, both planners.
+* Paired comparison (Sec. VI-A's grade, over many initializations): per configuration, each
+  physics row against the baseline row of the same scene, angle and configuration, by
+  `judge.behaviour_grade` (class, then boxes tipped or fallen): better / same / worse,
+  the kinematic failures of each, and a two-sided sign test on better against worse (ties
+  left out). One plan per scene is a draw on toppling clutter; this is the fair reading.
+* Fig. 9c: mean planning time per initialization (s) against the number of objects: for the
+  physics planner, its stages (pre, phi stages, post) on units whose baseline candidate gave
+  it an initialization; for the baseline, its whole planning time per angle (for reference).
+
+The paper's published numbers sit beside ours (Tables III and IV). The paper gives Fig. 9's
+curves only as plots; its text says the baseline was near 100% at 5 objects or fewer, which
+`PAPER_FIG9_NOTE` repeats in the Markdown.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections import defaultdict
+from pathlib import Path
+
+from scipy.stats import binomtest
+
+from drake_clutter.evaluation.judge import OUTCOME_KINDS, behaviour_grade, scene_score
+
+ENVIRONMENTS = ("bookshelf", "fridge")
+ENV_LABELS = {"bookshelf": "Bookshelf", "fridge": "Refrigerator", "aggregate": "Aggregate"}
+TRAJECTORY_KINDS = tuple(k for k in OUTCOME_KINDS if k != "planner_failure")
+
+# Table III (Sec. VI-B): % of scenes with success or partial success, (% partial success).
+PAPER_TABLE_III = {
+    "baseline": {"bookshelf": (76.7, 8.3), "fridge": (65.6, 5.6), "aggregate": (70.0, 6.7)},
+    "physics": {"bookshelf": (86.7, 10.0), "fridge": (83.3, 13.3), "aggregate": (84.7, 12.0)},
+}
+# Table IV (Sec. VI-B): % of the 918 trajectories of each algorithm per outcome.
+PAPER_TABLE_IV = {
+    "baseline": {"success": 36.9, "partial_success": 1.1, "failure_to_grasp": 32.9,
+                 "objects_falling": 1.4, "kinematic_failure": 27.7},
+    "physics": {"success": 48.7, "partial_success": 2.2, "failure_to_grasp": 27.2,
+                "objects_falling": 1.3, "kinematic_failure": 20.6},
+}
+PAPER_TRAJECTORIES = 918
+PAPER_FIG9_NOTE = ("The paper gives Fig. 9's curves as plots only; its text: at 5 objects or "
+                   "fewer the baseline succeeded in near 100% of scenes, and the rates fall "
+                   "from about 6 objects on; Fig. 9c's time per initialization grows with the "
+                   "number of objects (C++, 24-core workstation).")
+PHYSICS_STAGES = ("pre", "sphere", "full", "post")
+
+
+def _pct(part: int, whole: int) -> float | None:
+    return None if whole == 0 else 100.0 * part / whole
+
+
+def _fmt(value: float | None) -> str:
+    return "-" if value is None else f"{value:.1f}%"
+
+
+def groups(rows: list[dict]) -> dict[tuple[str, str], list[dict]]:
+    """Rows by (configuration name, planner), in first-seen order."""
+    out: dict[tuple[str, str], list[dict]] = {}
+    for row in rows:
+        out.setdefault((row["config_name"], row["planner"]), []).append(row)
+    return out
+
+
+def scene_scores(rows: list[dict]) -> dict[str, tuple[str, int, str]]:
+    """scene -> (environment, number of objects, scene score) over the rows of one group."""
+    kinds: dict[str, list[str]] = defaultdict(list)
+    meta = {}
+    for row in rows:
+        kinds[row["scene"]].append(row["kind"])
+        meta[row["scene"]] = (row["env"], row["num_objects"])
+    return {s: (*meta[s], scene_score(k)) for s, k in kinds.items()}
+
+
+def table_iii(rows: list[dict]) -> list[dict]:
+    """Table III rows: per group and environment (and aggregate), scenes and percentages."""
+    out = []
+    for (config, planner), group in groups(rows).items():
+        scores = scene_scores(group)
+        for env in (*ENVIRONMENTS, "aggregate"):
+            chosen = [s for e, _, s in scores.values() if env in ("aggregate", e)]
+            n = len(chosen)
+            success, partial = chosen.count("success"), chosen.count("partial_success")
+            paper = PAPER_TABLE_III.get(planner, {}).get(env, (None, None))
+            out.append({"configuration": config, "planner": planner, "environment": env,
+                        "scenes": n, "success_pct": _pct(success, n),
+                        "partial_pct": _pct(partial, n),
+                        "success_or_partial_pct": _pct(success + partial, n),
+                        "paper_success_or_partial_pct": paper[0], "paper_partial_pct": paper[1]})
+    return out
+
+
+def table_iv(rows: list[dict]) -> list[dict]:
+    """Table IV rows: per group and outcome kind, trajectories and percentage of them; plus
+    one row per group counting the units without a trajectory (planner_failure)."""
+    out = []
+    for (config, planner), group in groups(rows).items():
+        kinds = [r["kind"] for r in group]
+        trajectories = sum(k != "planner_failure" for k in kinds)
+        for kind in TRAJECTORY_KINDS:
+            out.append({"configuration": config, "planner": planner, "outcome": kind,
+                        "count": kinds.count(kind), "pct": _pct(kinds.count(kind), trajectories),
+                        "paper_pct": PAPER_TABLE_IV.get(planner, {}).get(kind)})
+        out.append({"configuration": config, "planner": planner, "outcome": "planner_failure",
+                    "count": kinds.count("planner_failure"), "pct": None, "paper_pct": None})
+    return out
+
+
+def row_grade(row: dict) -> tuple[int, int]:
+    """`behaviour_grade` of a stored row (its kind and the boxes of its outcome)."""
+    boxes = (row.get("outcome") or {}).get("boxes", [])
+    return behaviour_grade(row["kind"], sum(bool(b.get("tipped") or b.get("fallen"))
+                                            for b in boxes))
+
+
+def verdict(physics: tuple[int, int], baseline: tuple[int, int]) -> str:
+    """'better', 'same' or 'worse': the physics plan's grade against the baseline's."""
+    return "better" if physics < baseline else "same" if physics == baseline else "worse"
+
+
+def paired_rows(rows: list[dict]) -> list[dict]:
+    """One row per physics unit that has a baseline unit of the same scene, angle and
+    configuration: both kinds, both grades and the verdict (better / same / worse)."""
+    base = {(r["config_name"], r["scene"], r["angle"]): r for r in rows
+            if r["planner"] == "baseline"}
+    out = []
+    for r in rows:
+        b = base.get((r["config_name"], r["scene"], r["angle"]))
+        if r["planner"] != "physics" or b is None:
+            continue
+        gp, gb = row_grade(r), row_grade(b)
+        out.append({"configuration": r["config_name"], "scene": r["scene"], "angle": r["angle"],
+                    "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
+                    "physics_grade": gp, "verdict": verdict(gp, gb)})
+    return out
+
+
+def paired_comparison(rows: list[dict]) -> list[dict]:
+    """Per configuration: pairs, better / same / worse, kinematic failures of each planner and
+    the two-sided sign test's p-value on better against worse (None when all tie)."""
+    by_config: dict[str, list[dict]] = {}
+    for p in paired_rows(rows):
+        by_config.setdefault(p["configuration"], []).append(p)
+    out = []
+    for config, pairs in by_config.items():
+        verdicts = [p["verdict"] for p in pairs]
+        better, worse = verdicts.count("better"), verdicts.count("worse")
+        out.append({"configuration": config, "pairs": len(pairs), "better": better,
+                    "same": verdicts.count("same"), "worse": worse,
+                    "physics_kinematic_failures": sum(p["physics"] == "kinematic_failure"
+                                                      for p in pairs),
+                    "baseline_kinematic_failures": sum(p["baseline"] == "kinematic_failure"
+                                                       for p in pairs),
+                    "sign_test_p": (binomtest(better, better + worse).pvalue
+                                    if better + worse else None)})
+    return out
+
+
+def _init_seconds(row: dict) -> float | None:
+    """Planning seconds of one initialization (see the module docstring), None if none."""
+    timings = row.get("timings") or {}
+    if row["planner"] == "physics":
+        stages = timings.get("planner") or {}
+        if "pre" not in stages:
+            return None
+        return float(sum(stages.get(s, 0.0) for s in PHYSICS_STAGES))
+    return float(timings["plan"]) if "plan" in timings else None
+
+
+def fig9_data(rows: list[dict]) -> list[dict]:
+    """Per group, environment and number of objects: scenes, % success, % success or partial,
+    initializations and their mean planning time (s)."""
+    out = []
+    for (config, planner), group in groups(rows).items():
+        scores = scene_scores(group)
+        for env in ENVIRONMENTS:
+            levels = sorted({n for e, n, _ in scores.values() if e == env})
+            for n in levels:
+                chosen = [s for e, m, s in scores.values() if e == env and m == n]
+                times = [t for r in group if r["env"] == env and r["num_objects"] == n
+                         for t in [_init_seconds(r)] if t is not None]
+                success, partial = chosen.count("success"), chosen.count("partial_success")
+                out.append({"configuration": config, "planner": planner, "environment": env,
+                            "num_objects": n, "scenes": len(chosen),
+                            "success_pct": _pct(success, len(chosen)),
+                            "success_or_partial_pct": _pct(success + partial, len(chosen)),
+                            "initializations": len(times),
+                            "mean_seconds_per_init": sum(times) / len(times) if times
+                            else None})
+    return out
+
+
+# ----------------------------------------------------------------------------- figures
+
+
+def _axes_figure(title: str):
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.0, 4.0), dpi=100)
+    ax = fig.add_subplot()
+    ax.set_title(title)
+    return fig, ax
+
+
+def _draw_success(ax, data: list[dict], env: str) -> None:
+    """% scenes with success (solid) and success or partial (dashed) against the number of
+    objects, one colour per (configuration, planner)."""
+    for i, (key, points) in enumerate(_series(data, env).items()):
+        x = [p["num_objects"] for p in points]
+        colour = f"C{i}"
+        ax.plot(x, [p["success_pct"] for p in points], "o-", color=colour,
+                label=f"{key[1]} ({key[0]}): success")
+        ax.plot(x, [p["success_or_partial_pct"] for p in points], "s--", color=colour,
+                alpha=0.6, label=f"{key[1]} ({key[0]}): success or partial")
+    ax.set_xlabel("number of objects")
+    ax.set_ylabel("scenes (%)")
+    ax.set_ylim(-5, 105)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=7, loc="lower left")
+
+
+def _draw_time(ax, data: list[dict]) -> None:
+    """Mean planning time per initialization (s, log scale) against the number of objects."""
+    i = 0
+    for env in ENVIRONMENTS:
+        for key, points in _series(data, env).items():
+            points = [p for p in points if p["mean_seconds_per_init"] is not None]
+            if points:
+                ax.plot([p["num_objects"] for p in points],
+                        [p["mean_seconds_per_init"] for p in points], "o-", color=f"C{i}",
+                        label=f"{key[1]} ({key[0]}), {ENV_LABELS[env].lower()}")
+                i += 1
+    ax.set_xlabel("number of objects")
+    ax.set_ylabel("seconds per initialization")
+    ax.set_yscale("log")
+    ax.grid(True, alpha=0.3)
+    if i:
+        ax.legend(fontsize=7)
+
+
+def plot_success(data: list[dict], env: str, path: Path) -> Path:
+    """Fig. 9a (bookshelf) / 9b (fridge) as a PNG (see `_draw_success`)."""
+    letter = "a" if env == "bookshelf" else "b"
+    fig, ax = _axes_figure(f"Fig. 9{letter}: {ENV_LABELS[env]} (ours)")
+    _draw_success(ax, data, env)
+    fig.tight_layout()
+    fig.savefig(path, format="png")
+    return path
+
+
+def plot_time(data: list[dict], path: Path) -> Path:
+    """Fig. 9c as a PNG: mean planning time per initialization against the number of objects."""
+    fig, ax = _axes_figure("Fig. 9c: time per initialization (ours)")
+    _draw_time(ax, data)
+    fig.tight_layout()
+    fig.savefig(path, format="png")
+    return path
+
+
+def plot_combined(data: list[dict], path: Path) -> Path:
+    """Fig. 9 as the paper lays it out: (a), (b) and (c) side by side, one PNG."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(16.0, 4.5), dpi=100)
+    axes = fig.subplots(1, 3)
+    for ax, env, letter in ((axes[0], "bookshelf", "a"), (axes[1], "fridge", "b")):
+        ax.set_title(f"({letter}) {ENV_LABELS[env]}")
+        _draw_success(ax, data, env)
+    axes[2].set_title("(c) time per initialization")
+    _draw_time(axes[2], data)
+    fig.tight_layout()
+    fig.savefig(path, format="png")
+    return path
+
+
+def _series(data: list[dict], env: str) -> dict[tuple[str, str], list[dict]]:
+    out: dict[tuple[str, str], list[dict]] = {}
+    for p in data:
+        if p["environment"] == env:
+            out.setdefault((p["configuration"], p["planner"]), []).append(p)
+    return out
+
+
+# ----------------------------------------------------------------------------- text
+
+
+def markdown_table_iii(table: list[dict]) -> str:
+    """Table III as Markdown: ours "cumulative (partial)" beside the paper's."""
+    lines = ["| configuration | planner | environment | scenes | ours: success or partial "
+             "(partial) | ours: success | paper: success or partial (partial) |",
+             "|---|---|---|---:|---:|---:|---:|"]
+    for r in table:
+        paper = ("-" if r["paper_success_or_partial_pct"] is None else
+                 f"{r['paper_success_or_partial_pct']:.1f}% ({r['paper_partial_pct']:.1f}%)")
+        lines.append(f"| {r['configuration']} | {r['planner']} | {ENV_LABELS[r['environment']]}"
+                     f" | {r['scenes']} | {_fmt(r['success_or_partial_pct'])} "
+                     f"({_fmt(r['partial_pct'])}) | {_fmt(r['success_pct'])} | {paper} |")
+    return "\n".join(lines)
+
+
+def markdown_table_iv(table: list[dict]) -> str:
+    """Table IV as Markdown: ours (count and % of trajectories) beside the paper's %."""
+    lines = ["| configuration | planner | outcome | ours: trajectories | ours: % | paper: % |",
+             "|---|---|---|---:|---:|---:|"]
+    for r in table:
+        paper = "-" if r["paper_pct"] is None else f"{r['paper_pct']:.1f}%"
+        outcome = ("no trajectory (planner_failure, not in the %)"
+                   if r["outcome"] == "planner_failure" else r["outcome"])
+        lines.append(f"| {r['configuration']} | {r['planner']} | {outcome} | {r['count']} | "
+                     f"{_fmt(r['pct'])} | {paper} |")
+    return "\n".join(lines)
+
+
+def markdown_fig9(data: list[dict]) -> str:
+    """Fig. 9's points as a Markdown table."""
+    lines = ["| configuration | planner | environment | objects | scenes | success | "
+             "success or partial | initializations | s per initialization |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|"]
+    for p in data:
+        secs = "-" if p["mean_seconds_per_init"] is None else f"{p['mean_seconds_per_init']:.2f}"
+        lines.append(f"| {p['configuration']} | {p['planner']} | {ENV_LABELS[p['environment']]}"
+                     f" | {p['num_objects']} | {p['scenes']} | {_fmt(p['success_pct'])} | "
+                     f"{_fmt(p['success_or_partial_pct'])} | {p['initializations']} | {secs} |")
+    return "\n".join(lines)
+
+
+def markdown_paired(table: list[dict]) -> str:
+    """The paired comparison as Markdown."""
+    lines = ["| configuration | pairs | physics better | same | worse | kinematic failures "
+             "physics / baseline | sign test p |", "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in table:
+        p = "-" if r["sign_test_p"] is None else f"{r['sign_test_p']:.3f}"
+        lines.append(f"| {r['configuration']} | {r['pairs']} | {r['better']} | {r['same']} | "
+                     f"{r['worse']} | {r['physics_kinematic_failures']} / "
+                     f"{r['baseline_kinematic_failures']} | {p} |")
+    return "\n".join(lines)
+
+
+def _write_csv(path: Path, table: list[dict]) -> None:
+    with path.open("w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(table[0]) if table else ["empty"])
+        writer.writeheader()
+        writer.writerows(table)
+
+
+def write_report(rows: list[dict], out_dir: str | Path, source: str = "") -> dict[str, Path]:
+    """Writes report.md, table3.{md,csv}, table4.{md,csv}, fig9.csv, fig9a/b/c.png, fig9.png
+    (the three panels together) and paired.csv (physics against the baseline per
+    initialization) into ``out_dir`` (created); returns the paths by name."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    t3, t4, f9 = table_iii(rows), table_iv(rows), fig9_data(rows)
+    paths = {"table3.md": out / "table3.md", "table4.md": out / "table4.md",
+             "table3.csv": out / "table3.csv", "table4.csv": out / "table4.csv",
+             "fig9.csv": out / "fig9.csv", "paired.csv": out / "paired.csv",
+             "report.md": out / "report.md"}
+    md3, md4 = markdown_table_iii(t3), markdown_table_iv(t4)
+    paths["table3.md"].write_text(md3 + "\n", encoding="utf-8")
+    paths["table4.md"].write_text(md4 + "\n", encoding="utf-8")
+    _write_csv(paths["table3.csv"], t3)
+    _write_csv(paths["table4.csv"], t4)
+    _write_csv(paths["fig9.csv"], f9)
+    _write_csv(paths["paired.csv"], paired_rows(rows))
+    paths["fig9a.png"] = plot_success(f9, "bookshelf", out / "fig9a.png")
+    paths["fig9b.png"] = plot_success(f9, "fridge", out / "fig9b.png")
+    paths["fig9c.png"] = plot_time(f9, out / "fig9c.png")
+    paths["fig9.png"] = plot_combined(f9, out / "fig9.png")
+    text = [f"# Experiment report{f' ({source})' if source else ''}", "",
+            f"{len(rows)} stored units, {len(scene_keys(rows))} scenes.", "",
+            "## Table III: scene-level success (Sec. VI-B)", "",
+            "A scene succeeds if any of its angles succeeded; partial if the best angle was a "
+            "partial success. Paper: 150 scenes, 14 angles each.", "", md3, "",
+            "## Table IV: trajectory outcomes (Sec. VI-B)", "",
+            f"Percentages of the trajectories each planner returned (paper: "
+            f"{PAPER_TRAJECTORIES} per algorithm).", "", md4, "",
+            "## Fig. 9: success and time per initialization against clutter", "",
+            "![Fig. 9](fig9.png)", "",
+            markdown_fig9(f9), "", PAPER_FIG9_NOTE, "",
+            "## Physics against the baseline from the same initialization (Sec. VI-A's grade)",
+            "", "Each physics plan against the baseline plan of the same scene, angle and "
+            "configuration: the outcome class first (success, partial, failure to grasp or "
+            "objects falling, kinematic failure), then the boxes tipped or fallen. Per pair: "
+            "paired.csv.", "", markdown_paired(paired_comparison(rows)), ""]
+    paths["report.md"].write_text("\n".join(text), encoding="utf-8")
+    return paths
+
+
+def scene_keys(rows: list[dict]) -> set[str]:
+    """The distinct scene names of the rows."""
+    return {r["scene"] for r in rows}

@@ -1,0 +1,600 @@
+"""phi of Sec. V: the smooth-contact dynamics x_{t+1} = phi(x_t, u_t) over the Drake SAP world.
+
+The arm is kinematic (Sec. I, V: "we do not consider dynamics of the arm"); the boxes move by
+rigid-body dynamics with contact. One call of phi advances one knot interval (``knot_time``,
+0.2 s by default) in ``DynamicsConfig.substeps`` SAP steps.
+
+State x (numbers, shape (nx,), nx = 8 + 13 n):
+  x[0:8]             the arm's configuration at the start of the interval, TRAJECTORY_JOINTS
+                     order (7 arm angles in rad, the gripper opening in m): the previous knot's
+                     control, since the arm is kinematic;
+  x[8+13i : 8+13i+13] box i of ``StateLayout.box_names`` (the boxes phi keeps dynamic):
+                     quaternion (w, x, y, z) of R_WB, position p_WB (m), angular velocity
+                     w_WB (rad/s) and translational velocity v_WB (m/s), all in W: Drake's
+                     floating-body q and v.
+Tangent (derivative) coordinates dx (shape (ndx,), ndx = 8 + 12 n): the arm's 8, then per box
+  (dtheta, dp, dw, dv), where dtheta is a rotation vector in W: R' = exp([dtheta]x) R.
+  `StateLayout.retract` / `StateLayout.difference` map between the two.
+Control u (shape (8,)): the arm's configuration at the end of the interval, TRAJECTORY_JOINTS
+  order (the paper's q^t, the gripper opening included).
+
+One step: the arm starts at x_arm with the constant velocity (u - x_arm) / knot_time and its
+stiff PD servos track the straight joint-space line to u (the trajectory is linear between
+knots); the boxes start at their state. After the last sub-step the arm's state is u exactly
+(kinematic): d x_arm' / dx = 0 and d x_arm' / du = I. Everything phi needs is in x and u, so
+phi is deterministic: the same (x, u) gives the same bits.
+
+Contact (``DynamicsConfig.contact_model``): by default the boxes are compliant hydroelastic
+bodies with a margin (``WorldConfig.hydroelastic_margin``) against the rigid hydroelastic arm and
+shelf, so pairs enter SAP's problem before they touch and phi is continuous in (x, u); with
+point contact SAP sees a pair only once it penetrates, and a perturbation that decides whether
+it does at a sub-step's start changes the next velocity by a jump. Each step also yields the
+contact forces between bodies (`Phi.contact_forces`, averaged over the knot): Table I's
+force(q, x).
+
+Boxes phi does not keep (see `pruning`) are welded to W where they stand: static geometry that
+the arm and the kept boxes still touch. The kept set is chosen per candidate trajectory against
+the current box states; a planner that moves the trajectory far re-prunes (a new `PhiSpec`).
+
+A simulation failure (the SAP solver diverging) is not raised: `Phi.step` returns a state full
+of NaN and counts it in ``Phi.failures``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import pickle
+from dataclasses import dataclass, fields, replace
+from functools import cached_property
+
+import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RigidTransform, RotationMatrix
+from scipy.spatial.transform import Rotation
+
+from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig
+from drake_clutter.scene.scenes import Scene
+from drake_clutter.trajectory import robot_positions
+from drake_clutter.worlds.drake_world import (
+    ROBOT_JOINTS,
+    PointContactBoxes,
+    World,
+    box_rest_pose,
+    build_dynamics_world,
+    contact_pairs,
+    set_desired_robot_state,
+)
+
+ARM_DIM = 8  # TRAJECTORY_JOINTS: 7 arm joints + gripper opening
+NU = 8  # controls: the arm's next configuration (TRAJECTORY_JOINTS)
+BOX_DIM = 13  # quaternion wxyz, p_WB, w_WB, v_WB
+BOX_TANGENT = 12  # dtheta, dp, dw, dv
+GRAVITY = 9.81  # m/s^2, Drake's default
+ARM_NODE = 0  # node of the arm in interaction graphs; box i is node i + 1
+
+
+# ----------------------------------------------------------------------------- rotations
+
+
+def _quat_wxyz_to_rotation(q: np.ndarray) -> Rotation:
+    """Rotations of quaternion rows; a non-finite or zero row becomes the identity (callers
+    turn its result into NaN with `_bad_rows`)."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))[:, [1, 2, 3, 0]].copy()
+    q[_bad_rows(q)] = [0.0, 0.0, 0.0, 1.0]
+    return Rotation.from_quat(q)
+
+
+def _bad_rows(v: np.ndarray) -> np.ndarray:
+    """Rows of a 2-D array that are not finite, or all zero."""
+    v = np.atleast_2d(v)
+    return ~np.all(np.isfinite(v), axis=1) | ~np.any(v != 0.0, axis=1)
+
+
+def _rotation_to_quat_wxyz(r: Rotation) -> np.ndarray:
+    q = np.atleast_2d(r.as_quat())[:, [3, 0, 1, 2]]
+    return q * np.where(q[:, :1] < 0, -1.0, 1.0)  # w >= 0: one representative
+
+
+def quaternion_tangent_basis(q: np.ndarray) -> np.ndarray:
+    """E(q) (4x3): dq = E(q) dtheta for R' = exp([dtheta]x) R(q), q = (w, x, y, z) unit."""
+    w, x, y, z = q
+    # 0.5 * [0, dtheta] (x) q, written as a matrix acting on dtheta.
+    return 0.5 * np.array([[-x, -y, -z],
+                           [w, z, -y],
+                           [-z, w, x],
+                           [y, -x, w]])
+
+
+# ----------------------------------------------------------------------------- layout
+
+
+@dataclass(frozen=True)
+class StateLayout:
+    """Where everything sits in x and dx (see the module docstring)."""
+
+    box_names: tuple[str, ...]
+
+    @property
+    def num_boxes(self) -> int:
+        """Boxes in the state (the kept ones)."""
+        return len(self.box_names)
+
+    @property
+    def nx(self) -> int:
+        """Length of x."""
+        return ARM_DIM + BOX_DIM * self.num_boxes
+
+    @property
+    def ndx(self) -> int:
+        """Length of a tangent vector dx."""
+        return ARM_DIM + BOX_TANGENT * self.num_boxes
+
+    @property
+    def nu(self) -> int:
+        """Length of u."""
+        return NU
+
+    def boxes(self, x: np.ndarray) -> np.ndarray:
+        """Box states, shape (n, 13)."""
+        return np.asarray(x)[ARM_DIM:].reshape(self.num_boxes, BOX_DIM)
+
+    def box_index(self, name: str) -> int:
+        """Index of a kept box in the state (ValueError if it is not kept)."""
+        return self.box_names.index(name)
+
+    def box_pose(self, x: np.ndarray, name: str) -> RigidTransform:
+        """X_WB of a kept box in state x."""
+        b = self.boxes(x)[self.box_index(name)]
+        return RigidTransform(Quaternion(b[:4] / np.linalg.norm(b[:4])), b[4:7])
+
+    def join(self, arm: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """x from the arm's 8 numbers and the (n, 13) box states."""
+        return np.concatenate([np.asarray(arm, dtype=float),
+                               np.asarray(boxes, dtype=float).reshape(-1)])
+
+    def tangent_box_slice(self, i: int) -> slice:
+        """Columns/rows of box i in tangent coordinates."""
+        start = ARM_DIM + BOX_TANGENT * i
+        return slice(start, start + BOX_TANGENT)
+
+    def retract(self, x: np.ndarray, dx: np.ndarray) -> np.ndarray:
+        """x (+) dx: rotations by exp([dtheta]x) on the left, everything else added."""
+        boxes, d = self.boxes(x).copy(), np.asarray(dx)[ARM_DIM:].reshape(-1, BOX_TANGENT)
+        if self.num_boxes:
+            bad = _bad_rows(boxes[:, :4]) | ~np.all(np.isfinite(d[:, :3]), axis=1)
+            turn = np.where(bad[:, None], 0.0, d[:, :3])
+            rot = Rotation.from_rotvec(turn) * _quat_wxyz_to_rotation(boxes[:, :4])
+            boxes[:, :4] = _rotation_to_quat_wxyz(rot)
+            boxes[bad, :4] = np.nan  # a failed state stays failed, never an exception
+            boxes[:, 4:] += d[:, 3:]
+        return self.join(np.asarray(x)[:ARM_DIM] + np.asarray(dx)[:ARM_DIM], boxes)
+
+    def difference(self, x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
+        """x_a (-) x_b: the dx with retract(x_b, dx) = x_a (rotation vectors in W)."""
+        a, b = self.boxes(x_a), self.boxes(x_b)
+        d = np.zeros((self.num_boxes, BOX_TANGENT))
+        if self.num_boxes:
+            rel = _quat_wxyz_to_rotation(a[:, :4]) * _quat_wxyz_to_rotation(b[:, :4]).inv()
+            d[:, :3] = rel.as_rotvec()
+            d[_bad_rows(a[:, :4]) | _bad_rows(b[:, :4]), :3] = np.nan
+            d[:, 3:] = a[:, 4:] - b[:, 4:]
+        arm = np.asarray(x_a)[:ARM_DIM] - np.asarray(x_b)[:ARM_DIM]
+        return np.concatenate([arm, d.reshape(-1)])
+
+    def tangent_to_state(self, x: np.ndarray) -> np.ndarray:
+        """G(x) (nx x ndx): dx -> first-order change of x (quaternion rows by E(q))."""
+        G = np.zeros((self.nx, self.ndx))
+        G[:ARM_DIM, :ARM_DIM] = np.eye(ARM_DIM)
+        for i, b in enumerate(self.boxes(x)):
+            r, c = ARM_DIM + BOX_DIM * i, ARM_DIM + BOX_TANGENT * i
+            G[r:r + 4, c:c + 3] = quaternion_tangent_basis(b[:4] / np.linalg.norm(b[:4]))
+            G[r + 4:r + BOX_DIM, c + 3:c + BOX_TANGENT] = np.eye(9)
+        return G
+
+    def state_to_tangent(self, x: np.ndarray) -> np.ndarray:
+        """G+(x) (ndx x nx), the left inverse of G(x): E(q)^T E(q) = I/4, so E+ = 4 E^T; a
+        change along q itself (the quaternion's norm) maps to zero."""
+        P = self.tangent_to_state(x).T.copy()
+        for i in range(self.num_boxes):
+            c, r = ARM_DIM + BOX_TANGENT * i, ARM_DIM + BOX_DIM * i
+            P[c:c + 3, r:r + 4] *= 4.0
+        return P
+
+
+def rest_box_state(scene: Scene, name: str) -> np.ndarray:
+    """The 13-number state of a scene box resting at its planar pose, at rest."""
+    return pose_to_box_state(box_rest_pose(scene, scene.box(name)))
+
+
+def pose_to_box_state(X_WB: RigidTransform, V_WB: np.ndarray | None = None) -> np.ndarray:
+    """13-number box state from a pose and an optional spatial velocity [w_WB, v_WB] (W)."""
+    q = X_WB.rotation().ToQuaternion().wxyz()
+    q = q if q[0] >= 0 else -q
+    v = np.zeros(6) if V_WB is None else np.asarray(V_WB, dtype=float)
+    return np.concatenate([q, X_WB.translation(), v])
+
+
+def box_state_to_pose(b: np.ndarray) -> RigidTransform:
+    """X_WB of a 13-number box state."""
+    return RigidTransform(RotationMatrix(Quaternion(b[:4] / np.linalg.norm(b[:4]))), b[4:7])
+
+
+def scene_box_states(scene: Scene) -> dict[str, np.ndarray]:
+    """Every scene box at rest at its planar pose (name -> 13-number state)."""
+    return {b.name: rest_box_state(scene, b.name) for b in scene.boxes}
+
+
+# ----------------------------------------------------------------------------- spec
+
+
+@dataclass(frozen=True, eq=False)
+class PhiSpec:
+    """Everything that defines one phi: picklable, so worker processes can build their own.
+
+    ``dynamic_boxes`` are the kept boxes in state order; ``frozen`` maps every other scene box
+    to the 7-number pose (quaternion wxyz, p_WB) where it is welded; the arm passes through
+    the boxes in ``arm_passes``."""
+
+    scene: Scene
+    dynamic_boxes: tuple[str, ...]
+    frozen: tuple[tuple[str, tuple[float, ...]], ...]
+    knot_time: float
+    config: DynamicsConfig = DynamicsConfig()
+    world: WorldConfig = WorldConfig()
+    variant: str = "capsules"
+    arm_passes: tuple[str, ...] = ()
+
+    @cached_property
+    def key(self) -> str:
+        """A digest that identifies this spec (worker processes cache their Phi by it)."""
+        return hashlib.sha1(pickle.dumps(self._fields())).hexdigest()
+
+    def _fields(self) -> tuple:
+        return tuple(getattr(self, f.name) for f in fields(self))
+
+    def __getstate__(self):
+        return self._fields()
+
+    def __setstate__(self, state):
+        for f, value in zip(fields(self), state, strict=True):
+            object.__setattr__(self, f.name, value)
+
+    @property
+    def layout(self) -> StateLayout:
+        """The state layout of this phi."""
+        return StateLayout(self.dynamic_boxes)
+
+    @property
+    def sim_time_step(self) -> float:
+        """s, one SAP sub-step."""
+        return self.knot_time / self.config.substeps
+
+    def frozen_poses(self) -> dict[str, RigidTransform]:
+        """name -> X_WB of the welded boxes."""
+        return {name: box_state_to_pose(np.concatenate([np.asarray(p), np.zeros(6)]))
+                for name, p in self.frozen}
+
+
+def make_spec(scene: Scene, dynamic_boxes, box_states: dict[str, np.ndarray] | None = None,
+              knot_time: float = 0.2, config: DynamicsConfig | None = None,
+              world: WorldConfig | None = None, variant: str = "capsules",
+              arm_passes: tuple[str, ...] = ()) -> PhiSpec:
+    """A PhiSpec keeping ``dynamic_boxes`` (in order), welding the others where ``box_states``
+    (name -> 13 numbers; default: resting poses) puts them; the arm passes ``arm_passes``."""
+    states = scene_box_states(scene) if box_states is None else box_states
+    dynamic = tuple(dynamic_boxes)
+    unknown = (set(dynamic) | set(arm_passes)) - {b.name for b in scene.boxes}
+    if unknown:
+        raise ValueError(f"boxes not in the scene: {', '.join(sorted(unknown))}")
+    frozen = tuple((b.name, tuple(float(v) for v in states[b.name][:7]))
+                   for b in scene.boxes if b.name not in dynamic)
+    if knot_time <= 0:
+        raise ValueError(f"knot_time must be positive, got {knot_time}")
+    return PhiSpec(scene, dynamic, frozen, float(knot_time), config or DynamicsConfig(),
+                   world or WorldConfig(), variant, tuple(arm_passes))
+
+
+def check_config(config: DynamicsConfig) -> None:
+    """Raises ConfigError (naming the field) for DynamicsConfig values phi cannot use."""
+    problems = [
+        ("fd_step", config.fd_step > 0, "must be positive"),
+        ("substeps", config.substeps >= 1, "must be at least 1"),
+        ("workers", config.workers >= 0, "must be 0 (serial) or more"),
+        ("derivative_stride", config.derivative_stride >= 1, "must be at least 1"),
+        ("autodiff_min_groups", config.autodiff_min_groups >= 1, "must be at least 1"),
+        ("derivative_method", not (config.derivative_method == "autodiff"
+                                   and config.contact_model == "point"),
+         "cannot be 'autodiff' with contact_model 'point' (no AutoDiffXd Box-Box queries)"),
+        ("corner_sphere_radius", config.corner_sphere_radius > 0, "must be positive"),
+        ("interaction_margin", config.interaction_margin > 0, "must be positive"),
+        ("known_block_tolerance", config.known_block_tolerance >= 0, "must be >= 0"),
+        ("prune_margin", config.prune_margin >= 0, "must be >= 0"),
+        ("prune_contact_range", config.prune_contact_range >= 0, "must be >= 0"),
+        ("prune_samples_per_knot", config.prune_samples_per_knot >= 1, "must be at least 1"),
+        ("settle_time", config.settle_time >= 0, "must be >= 0"),
+        ("step_cache_size", config.step_cache_size >= 1, "must be at least 1"),
+        ("shelf_force_allowance", config.shelf_force_allowance >= 0, "must be >= 0"),
+        ("max_box_speed", config.max_box_speed > 0, "must be positive"),
+        ("max_box_spin", config.max_box_spin > 0, "must be positive"),
+        ("divergence_limit", config.divergence_limit > 0, "must be positive"),
+    ]
+    for name, ok, reason in problems:
+        if not ok:
+            raise ConfigError("<config>", f"dynamics.{name}",
+                              f"{reason}, got {getattr(config, name)!r}")
+
+
+def initial_state(layout: StateLayout, q_arm, box_states: dict[str, np.ndarray]) -> np.ndarray:
+    """x from the arm's configuration (TRAJECTORY_JOINTS) and name -> 13-number box states
+    (every kept box must be present; others are ignored)."""
+    return layout.join(np.asarray(q_arm, dtype=float),
+                       np.array([box_states[n] for n in layout.box_names]).reshape(-1, BOX_DIM))
+
+
+def point_contact_geometry(config: DynamicsConfig) -> PointContactBoxes | None:
+    """The world's box geometry for ``config.contact_model``."""
+    if config.contact_model == "hydroelastic":
+        return None
+    return PointContactBoxes(config.corner_sphere_radius,
+                             box_shape=config.contact_model == "point")
+
+
+# ----------------------------------------------------------------------------- phi
+
+
+class Phi:
+    """One phi world (plant + context built once) that steps knots and traces interactions."""
+
+    def __init__(self, spec: PhiSpec):
+        check_config(spec.config)
+        self.spec = spec
+        self.layout = spec.layout
+        world_config = replace(spec.world, time_step=spec.sim_time_step)
+        self.world: World = build_dynamics_world(
+            spec.scene, spec.variant, world_config, frozen_boxes=spec.frozen_poses(),
+            point_contact=point_contact_geometry(spec.config), arm_passes=spec.arm_passes)
+        self.plant = self.world.plant
+        self.root = self.world.diagram.CreateDefaultContext()
+        self.context = self.plant.GetMyMutableContextFromRoot(self.root)
+        self.plant.get_actuation_input_port().FixValue(
+            self.context, np.zeros(self.plant.num_actuated_dofs()))
+        self._q_default = self.plant.GetPositions(self.context).copy()
+        self._robot_q = self.world.robot_position_indices()
+        self._robot_v = np.array([self.plant.GetJointByName(n, self.world.robot).velocity_start()
+                                  for n in ROBOT_JOINTS])
+        self._box_q, self._box_v = self._box_indices()
+        self._nq = self.plant.num_positions()  # v starts here in the discrete state
+        weights = [GRAVITY * spec.scene.box(n).mass for n in self.layout.box_names]
+        self._shelf_allowance = spec.config.shelf_force_allowance * np.array([0.0, *weights])
+        self._geometry_nodes = self._map_geometry_to_nodes()
+        self._contact_port = self.plant.get_contact_results_output_port()
+        self.failures = 0
+
+    # -- layout in the plant
+
+    def _box_indices(self) -> tuple[np.ndarray, np.ndarray]:
+        q_idx, v_idx = [], []
+        for name in self.layout.box_names:
+            body = self.world.box_body(name)
+            q_idx.append(np.arange(body.floating_positions_start(),
+                                   body.floating_positions_start() + 7))
+            v_idx.append(np.arange(body.floating_velocities_start_in_v(),
+                                   body.floating_velocities_start_in_v() + 6))
+        shape_q, shape_v = (0, 7), (0, 6)
+        return (np.array(q_idx, dtype=int).reshape(shape_q if not q_idx else (-1, 7)),
+                np.array(v_idx, dtype=int).reshape(shape_v if not v_idx else (-1, 6)))
+
+    def _map_geometry_to_nodes(self) -> dict:
+        """geometry id -> interaction node: ARM_NODE, box i + 1, frozen box j -(j + 1); the
+        shelf and the robot's welded base are absent."""
+        plant = self.plant
+        nodes = {}
+        for index in plant.GetBodyIndices(self.world.robot):
+            body = plant.get_body(index)
+            if plant.IsAnchored(body):
+                continue
+            for g in plant.GetCollisionGeometriesForBody(body):
+                nodes[g] = ARM_NODE
+        for i, name in enumerate(self.layout.box_names):
+            for g in plant.GetCollisionGeometriesForBody(self.world.box_body(name)):
+                nodes[g] = i + 1
+        for j, (name, _) in enumerate(self.spec.frozen):
+            for g in plant.GetCollisionGeometriesForBody(self.world.box_body(name)):
+                nodes[g] = -(j + 1)
+        return nodes
+
+    def frozen_touched(self, edges) -> set[str]:
+        """Names of the frozen boxes that a set of interaction edges reaches."""
+        names = [name for name, _ in self.spec.frozen]
+        return {names[-n - 1] for edge in edges for n in edge if n < 0}
+
+    # -- state in and out
+
+    def set_state(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Loads x into the plant context with the arm moving towards u; returns the arm's
+        robot positions at both ends (ROBOT_JOINTS order)."""
+        x, u = np.asarray(x, dtype=float), np.asarray(u, dtype=float)
+        plant, ctx = self.plant, self.context
+        q, v = self._q_default.copy(), np.zeros(plant.num_velocities())  # not the context's:
+        # a diverged step leaves NaN there
+        q_start, q_end = robot_positions(x[:ARM_DIM]), robot_positions(u)
+        q[self._robot_q] = q_start
+        v[self._robot_v] = (q_end - q_start) / self.spec.knot_time
+        boxes = self.layout.boxes(x)
+        if len(boxes):
+            quats = boxes[:, :4] / np.linalg.norm(boxes[:, :4], axis=1, keepdims=True)
+            q[self._box_q] = np.concatenate([quats, boxes[:, 4:7]], axis=1)
+            v[self._box_v] = boxes[:, 7:]
+        plant.SetPositions(ctx, q)
+        plant.SetVelocities(ctx, v)
+        return q_start, q_end
+
+    def read_state(self, u: np.ndarray) -> np.ndarray:
+        """x after a step: the arm at u (kinematic), the kept boxes from the plant."""
+        q, v = self.plant.GetPositions(self.context), self.plant.GetVelocities(self.context)
+        boxes = np.concatenate([q[self._box_q], v[self._box_v]], axis=1)
+        if len(boxes):
+            diverged = np.any(np.abs(boxes) > self.spec.config.divergence_limit, axis=1)
+            boxes[diverged] = np.nan  # the caller counts a failure
+            boxes[:, :4] /= np.linalg.norm(boxes[:, :4], axis=1, keepdims=True)
+            boxes[:, :4] *= np.where(boxes[:, :1] < 0, -1.0, 1.0)
+        return self.layout.join(np.asarray(u, dtype=float), boxes)
+
+    # -- stepping
+
+    def step(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """phi(x, u): one knot interval (see the module docstring). NaN state on failure."""
+        return self._step(x, u, trace=False, forces=False)[0]
+
+    def step_traced(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, set]:
+        """phi(x, u) and the interaction edges seen during it: pairs (a, b), a < b, of nodes
+        (ARM_NODE, box i + 1, frozen box j as -(j + 1)) that were in SAP's contact problem at
+        some sub-step (touching, or for hydroelastic boxes within their margin) or came within
+        ``interaction_margin`` at the start or the end of the knot. (A pair that comes closer
+        than a perturbation's reach, ~1e-5 m, in mid-knot without touching is missed.)"""
+        return self._step(x, u, trace=True, forces=False)[:2]
+
+    def step_full(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, set, np.ndarray]:
+        """phi(x, u), its interaction edges (`step_traced`) and its contact forces
+        (`contact_forces`, shape (1 + n,), N)."""
+        return self._step(x, u, trace=True, forces=True)
+
+    def step_forces(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """phi(x, u) and its contact forces (see `contact_forces`), without tracing."""
+        x_next, _, f = self._step(x, u, trace=False, forces=True)
+        return x_next, f
+
+    @property
+    def num_forces(self) -> int:
+        """Length of the force vector: one entry per node (the arm, then each kept box)."""
+        return 1 + self.layout.num_boxes
+
+    def _step(self, x, u, trace: bool, forces: bool) -> tuple[np.ndarray, set, np.ndarray]:
+        f = np.zeros(self.num_forces)
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
+            self.failures += 1  # Drake aborts on non-finite positions: never hand them over
+            return np.full(self.layout.nx, np.nan), set(), f * np.nan
+        q_start, q_end = self.set_state(x, u)
+        n = self.spec.config.substeps
+        v_arm = (q_end - q_start) / self.spec.knot_time
+        edges: set = set()
+        try:
+            for k in range(n):
+                set_desired_robot_state(self.world, self.context,
+                                        q_start + (q_end - q_start) * (k + 1) / n, v_arm)
+                if trace:
+                    edges |= self.interactions() if k == 0 else self.contacts()
+                state = self.plant.EvalUniquePeriodicDiscreteUpdate(self.context)
+                if forces:  # the same cached SAP solve as the update
+                    f += self.contact_forces()
+                self.context.SetDiscreteState(self._speed_capped(state.value()))
+            if trace:
+                edges |= self.interactions()
+        except RuntimeError:
+            self.failures += 1
+            return np.full(self.layout.nx, np.nan), edges, f * np.nan
+        x_next = self.read_state(u)
+        if not np.all(np.isfinite(x_next)):
+            self.failures += 1
+            return np.full(self.layout.nx, np.nan), edges, f * np.nan
+        return x_next, edges, f / n
+
+    def _speed_capped(self, values: np.ndarray) -> np.ndarray:
+        """The plant's discrete state [q, v] with every kept box's angular and translational
+        speed scaled down to ``max_box_spin`` / ``max_box_speed`` (continuous; a no-op below
+        them): keeps a violently thrown box finite (see the config's comment)."""
+        if not len(self._box_v):
+            return values
+        v = values[self._nq + self._box_v]  # (n, 6): w_WB, v_WB
+        cfg = self.spec.config
+        spin = np.linalg.norm(v[:, :3], axis=1)
+        speed = np.linalg.norm(v[:, 3:], axis=1)
+        if np.all(spin <= cfg.max_box_spin) and np.all(speed <= cfg.max_box_speed):
+            return values
+        values = values.copy()
+        v[:, :3] *= np.minimum(1.0, cfg.max_box_spin / np.maximum(spin, 1e-300))[:, None]
+        v[:, 3:] *= np.minimum(1.0, cfg.max_box_speed / np.maximum(speed, 1e-300))[:, None]
+        values[self._nq + self._box_v] = v
+        return values
+
+    def contact_forces(self) -> np.ndarray:
+        """Contact forces of the SAP step from the current plant state, per node (N, shape
+        (1 + n,)): entry 0 the arm, entry i + 1 kept box i; each sums the magnitudes |f| of the
+        contact forces (normal and friction together) between that node and every other object
+        (arm, kept or frozen box) - Table I's forces between pairs of objects. A box's contacts
+        with the shelf count only beyond ``shelf_force_allowance`` x its weight (they carry
+        the weight at every knot; beyond it the box is pressed into the shelf, Sec. III's
+        kinematic failure); a body's internal contacts are left out. A pair appears in both
+        its nodes' entries. `step_full` averages this over a knot's sub-steps."""
+        pairs = contact_pairs(self._contact_port.Eval(self.context))
+        f, shelf = self.sum_by_node(((a, b, [np.linalg.norm(force)]) for a, b, force in pairs), 1)
+        return f[:, 0] + np.maximum(0.0, shelf[:, 0] - self._shelf_allowance)
+
+    def sum_by_node(self, rows, width: int) -> tuple[np.ndarray, np.ndarray]:
+        """Sums per node (1 + n, width) of (geometry id A, geometry id B, row) contacts, as
+        `contact_forces` counts them: (between objects, a kept box's with the shelf)."""
+        f, shelf = np.zeros((self.num_forces, width)), np.zeros((self.num_forces, width))
+        for id_a, id_b, row in rows:
+            a, b = self._geometry_nodes.get(id_a), self._geometry_nodes.get(id_b)
+            if a == b:
+                continue
+            if a is None or b is None:  # the shelf (or the robot's welded base)
+                box = b if a is None else a
+                if box is not None and box > ARM_NODE:
+                    shelf[box] += row
+                continue
+            for node in (a, b):
+                if node >= 0:
+                    f[node] += row
+        return f, shelf
+
+    @property
+    def contact_margin(self) -> float:
+        """m: pairs this far apart are already in SAP's contact problem (the hydroelastic
+        boxes' margin; 0 for point contact, where only touching pairs are)."""
+        if self.spec.config.contact_model == "hydroelastic":
+            return self.spec.world.hydroelastic_margin
+        return 0.0
+
+    def interactions(self) -> set:
+        """Node pairs within ``interaction_margin`` (beyond `contact_margin`) in the current
+        plant state."""
+        query = self.plant.get_geometry_query_input_port().Eval(self.context)
+        return self._edges(query.ComputeSignedDistancePairwiseClosestPoints(
+            self.spec.config.interaction_margin + self.contact_margin))
+
+    def contacts(self) -> set:
+        """Node pairs in SAP's contact problem for a step from the current plant state:
+        penetrating pairs (3x cheaper than `interactions`), or pairs within `contact_margin`."""
+        query = self.plant.get_geometry_query_input_port().Eval(self.context)
+        if self.contact_margin > 0:
+            return self._edges(query.ComputeSignedDistancePairwiseClosestPoints(
+                self.contact_margin))
+        return self._edges(query.ComputePointPairPenetration())
+
+    def _edges(self, pairs) -> set:
+        edges, nodes = set(), self._geometry_nodes
+        for pair in pairs:
+            a, b = nodes.get(pair.id_A), nodes.get(pair.id_B)
+            if a is not None and b is not None and a != b:
+                edges.add((min(a, b), max(a, b)))
+        return edges
+
+    def settle(self, x: np.ndarray, seconds: float | None = None) -> np.ndarray:
+        """x after the boxes rest ``seconds`` (default ``settle_time``) under the still arm:
+        a start state whose boxes are at rest in phi (resting poses from a scene are not
+        exactly phi's equilibrium)."""
+        seconds = self.spec.config.settle_time if seconds is None else seconds
+        hold = np.asarray(x[:ARM_DIM], dtype=float)
+        for _ in range(int(np.ceil(seconds / self.spec.knot_time - 1e-9))):
+            x = self.step(x, hold)
+        return x
+
+    def rollout(self, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
+        """States x_0..x_T (shape (T+1, nx)) of applying controls ``us`` (T, 8) from x0."""
+        us = np.atleast_2d(np.asarray(us, dtype=float))
+        xs = np.empty((len(us) + 1, self.layout.nx))
+        xs[0] = x0
+        for t, u in enumerate(us):
+            xs[t + 1] = self.step(xs[t], u)
+        return xs

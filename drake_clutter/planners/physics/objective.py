@@ -1,0 +1,546 @@
+"""The objectives of Sec. V over iLQR's states and controls: Table I terms chained onto them.
+
+Two problems share the Table I terms of `costs` and the distances of `geometry`:
+
+**The physics problem** (`PhysicsObjective`, Sec. V). iLQR's state z = [x, q_prev]: phi's state
+x (`dynamics.StateLayout`: the arm's configuration q^t at knot t, then 13 numbers per kept box)
+augmented with the previous knot's arm configuration q^(t-1) (8), which c_acc needs; its
+tangent dz = [dx, dq_prev] (box rotations as rotation vectors in W). The control u_t = q^(t+1).
+Knot 0 (the start, fixed) to knot T = Delta; Table II's time windows, as we read them:
+
+* per knot t = 1..T, on the state z_t (the arm at q^t, the boxes where phi put them):
+  c_static (arm vs shelf, "t <= Delta"), c_motion, c_upright ("all": every knot of the plan;
+  the boxes' motion after Delta is not simulated by the planner), c_force as a proxy (below);
+* per interval t = 0..T-1, on (z_t, u_t): c_acc over (q^(t-1), q^t, q^(t+1)); at t = 0
+  q^(-1) = q^0 (the arm starts at rest); c_force from phi's forces of that knot ("all");
+* terminal, on z_T: c_grasp (tool frame to the target's centre), c_grp_horiz, c_grp_open.
+
+c_grasp here is Table I's distance (smoothed at 0, `grasp_distance`), not `costs.grasp`'s
+squared distance: at w_grasp = 1e3 the square pulls with 2e3 d, too weak to matter against the
+clutter terms at a few cm (on fig5 the plan ended 5-15 cm off the target, measured); the
+distance pulls with 1e3 at any range, as in the paper.
+
+c_force (Table I: 1/2 ||force(q, x)||^2, the forces between all pairs of objects) comes from
+phi itself when the objective is given a ``forces`` source (`derivatives.PhiDynamics`; the
+physics planner always gives it): per interval t = 0..T-1, f_t = f(x_t, u_t) is phi's
+contact-force vector of that knot (N; the arm's and each kept box's summed contact forces with
+every other object, a box's shelf contact beyond its allowance: `dynamics.Phi.contact_forces`),
+and its Jacobians (Fx, Fu) come from the same derivatives as A and B, so the term's
+Gauss-Newton expansion is w (Fx, Fu)^T f and w (Fx, Fu)^T (Fx, Fu). Without a source
+(``PhysicsConfig.force_source`` "proxy", or no phi) it is a penetration proxy on the knot's
+state: for every arm-vs-box pair in contact f = k (-d), k = ``force_stiffness``.
+
+Penetration (c_static, c_static_hull, c_dynamic) is `clearance.smooth_penetration` of the
+signed distance (linear beyond contact, quadratic inside d_safe), one function for both
+planners; its Hessian here is the Gauss-Newton (1/d_safe) J'J of the quadratic part, kept
+beyond contact too (the linear part has none, and iLQR needs curvature to take a step).
+Optional in the phi stages (`PhysicsConfig.w_static_deep`, ``phi_static_substeps``; off by
+default): a steep part 1/2 (depth - static_depth)^2 (`deep_penetration_term`) and c_static as
+the mean over configurations between q^(t-1) (z's tail) and q^t.
+
+**The kinematic problems** (`KinematicObjective`, Sec. V-A and V-B): the boxes held fixed, the
+state is q^t (8) and the control q^(t+1). Pre-processing: c_static_hull + c_dynamic (arm vs the
+boxes but the target, over ``hull_substeps`` configurations per knot interval, as the baseline's
+c_static_hull) + c_vel, with c_grasp to the candidate's pre-grasp point and c_grp_horiz at the
+end in place of the baseline's terminal pose constraint. Post-processing: c_static at the knots
+(in the evaluation geometry) + c_match + c_match_vel to the reference path.
+
+Every `terms` value is weighted (Table II / `PhysicsConfig`); `quadratize` returns the
+`ilqr.Expansion` in tangent coordinates.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.math import RigidTransform
+
+from drake_clutter.common.config import PhysicsConfig
+from drake_clutter.phi.dynamics import ARM_DIM, BOX_TANGENT, StateLayout, box_state_to_pose
+from drake_clutter.planners.clearance import smooth_penetration
+from drake_clutter.planners.physics import costs
+from drake_clutter.planners.physics.costs import Term
+from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry, Contact
+from drake_clutter.robot import pr2
+from drake_clutter.solvers.ilqr import Expansion
+
+OPEN = pr2.GRIPPER_MAX_OPENING  # m, c_grp_open's q_gripper_open
+
+
+# ----------------------------------------------------------------------------- penetration
+
+
+def penetration_term(contacts: list[Contact], d_safe: float, columns: int,
+                     box_columns: dict[str, int] | None = None) -> Term:
+    """sum over ``contacts`` of smooth_penetration(d_safe - d) as a Term over ``columns``
+    numbers: the arm's 8 first, a box's (dtheta, dp) at ``box_columns[name]`` when given."""
+    value, grad, hess = 0.0, np.zeros(columns), np.zeros((columns, columns))
+    for c in contacts:
+        if c.distance >= d_safe:
+            continue
+        v, slope = smooth_penetration(d_safe - c.distance, d_safe)
+        J = _distance_row(c, columns, box_columns)
+        value += v
+        grad -= slope * J
+        hess += np.outer(J, J) / d_safe
+    return Term(value, grad, hess)
+
+
+def deep_penetration_term(contacts: list[Contact], depth: float, columns: int) -> Term:
+    """sum over ``contacts`` of 1/2 (-d - depth)^2 where the arm sinks deeper than ``depth``
+    (m) into the obstacle: the phi stages' steep part of c_static (Gauss-Newton Hessian J'J,
+    exact beyond ``depth``), as a Term over ``columns`` numbers (the arm's 8 first)."""
+    value, grad, hess = 0.0, np.zeros(columns), np.zeros((columns, columns))
+    for c in contacts:
+        excess = -c.distance - depth
+        if excess <= 0.0:
+            continue
+        J = _distance_row(c, columns, None)
+        value += 0.5 * excess * excess
+        grad -= excess * J
+        hess += np.outer(J, J)
+    return Term(value, grad, hess)
+
+
+def _distance_row(c: Contact, columns: int, box_columns: dict[str, int] | None) -> np.ndarray:
+    J = np.zeros(columns)
+    J[:ARM_DIM] = c.d_dq
+    if box_columns and c.d_dbox is not None and c.obstacle in box_columns:
+        start = box_columns[c.obstacle]
+        J[start:start + 6] = c.d_dbox
+    return J
+
+
+def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: float,
+                        exclude: tuple[str, ...] = (), shelf_only: bool = False,
+                        deep: tuple[float, float] = (0.0, 0.0),
+                        spacing: float = 0.0) -> dict[str, Term]:
+    """Mean over ``substeps`` configurations on the segment (q_a, q_b] of the penetration of
+    the arm and the shelf ("shelf") and of the arm and the boxes but ``exclude`` ("boxes"),
+    boxes fixed, each a Term over (q_a, q_b) (16,): the baseline's approximation of a link's
+    convex hull between two knots (c_static_hull, c_dynamic; c_static with ``shelf_only``,
+    which skips the boxes' distances). ``deep`` = (weight, depth): the shelf part adds weight
+    x `deep_penetration_term` (depth, m). One distance query per configuration serves both.
+    ``spacing`` (m) > 0 raises the count so that no arm point travels more than about that
+    between samples (`ArmGeometry.sweep`): a fast segment cannot carry a finger through the
+    board unseen. The count is held fixed in the derivatives."""
+    if spacing > 0.0:
+        substeps = max(substeps, math.ceil(geometry.sweep(q_a, q_b) / spacing))
+    zero = Term(0.0, np.zeros(2 * ARM_DIM), np.zeros((2 * ARM_DIM, 2 * ARM_DIM)))
+    out = {"shelf": zero, "boxes": zero}
+    for k in range(1, substeps + 1):
+        lam = k / substeps
+        q = (1 - lam) * np.asarray(q_a) + lam * np.asarray(q_b)
+        found = geometry.contacts(q, None, d_safe, "shelf" if shelf_only else "all")
+        found = [c for c in found if c.obstacle not in exclude]
+        S = np.hstack([(1 - lam) * np.eye(ARM_DIM), lam * np.eye(ARM_DIM)])
+        for kind in out:
+            part = [c for c in found if (c.obstacle == SHELF) == (kind == "shelf")]
+            term = penetration_term(part, d_safe, ARM_DIM)
+            if kind == "shelf" and deep[0] > 0.0:
+                term = _add(term, deep_penetration_term(part, deep[1], ARM_DIM), deep[0])
+            if term.value != 0.0:
+                out[kind] = _add(out[kind], _pull(term, S), 1.0 / substeps)
+    return out
+
+
+def _add(a: Term, b: Term, weight: float = 1.0) -> Term:
+    return Term(a.value + weight * b.value, a.gradient + weight * b.gradient,
+                a.hessian + weight * b.hessian)
+
+
+def grasp_distance(p_tool_W: np.ndarray, dp_dq: np.ndarray, p_target_W: np.ndarray,
+                   eps: float, majorize: bool = False) -> Term:
+    """Table I's c_grasp as a distance: sqrt(||p_gripper - p_target||^2 + eps^2) - eps (m),
+    smoothed at 0 by ``eps``, over (arm joints, target position); Gauss-Newton Hessian, or
+    with ``majorize`` J'J / s: the quadratic in r above the distance that touches it at r
+    (curvature along r too, where Gauss-Newton has none)."""
+    r = np.asarray(p_tool_W, dtype=float) - np.asarray(p_target_W, dtype=float)
+    J = np.hstack([dp_dq, -np.eye(3)])
+    s = float(np.sqrt(r @ r + eps**2))
+    g = J.T @ r / s
+    if majorize:
+        return Term(s - eps, g, J.T @ J / s)
+    # Curvature of the distance across r (the GN of the radial part is zero): J'(I/s - rr'/s^3)J.
+    H = J.T @ (np.eye(3) / s - np.outer(r, r) / s**3) @ J
+    return Term(s - eps, g, H)
+
+
+def speed_limit(q: np.ndarray, u: np.ndarray, max_step: np.ndarray) -> Term:
+    """sum_j max(0, |u_j - q_j| - max_step_j)^2 over (q, u) (16,): a joint moving farther in
+    one knot interval than its speed limit allows (exact Hessian, piecewise constant)."""
+    step = np.asarray(u, dtype=float) - np.asarray(q, dtype=float)
+    excess = np.abs(step) - max_step
+    active = excess > 0
+    n = len(step)
+    J = np.zeros((int(active.sum()), 2 * n))
+    rows = np.flatnonzero(active)
+    sign = np.sign(step[rows])
+    J[np.arange(len(rows)), rows] = -sign
+    J[np.arange(len(rows)), n + rows] = sign
+    r = excess[active]
+    return Term(float(r @ r), 2.0 * J.T @ r, 2.0 * J.T @ J)
+
+
+def max_steps(config: PhysicsConfig, knot_time: float) -> np.ndarray:
+    """The largest move per knot interval of each TRAJECTORY_JOINTS coordinate (rad; m for
+    the opening) at ``speed_fraction`` of the PR2's speed limits."""
+    limits = pr2.velocity_limits()
+    arm = [limits[name] for name in pr2.ARM_JOINTS]
+    finger = 2.0 * limits[pr2.FINGER_JOINTS[0]]  # the gap moves at twice a finger
+    return config.speed_fraction * knot_time * np.array(arm + [finger])
+
+
+# ----------------------------------------------------------------------------- physics
+
+
+class PhysicsObjective:
+    """Sec. V's objective over z = [x, q_prev] and u = q^(t+1) (see the module docstring).
+
+    ``x0`` is the start state (its boxes' positions are c_motion's p_i^1); ``target`` the
+    target box's name (its centre is c_grasp's point: its state position when kept, else its
+    resting pose). Boxes in ``force_exclude`` have no proxy c_force (the sphere stage's
+    target); ``static_geometry`` (default: ``geometry``) is the arm whose distances to the shelf
+    make c_static (the sphere stage's capsules). ``forces``: phi's contact forces
+    (``step_forces(x, u)`` and ``linearize_forces(xs, us)``, as `derivatives.PhiDynamics`)
+    for c_force, unless ``config.force_source`` is "proxy". ``approach``: the direction (W) of
+    c_approach / c_approach_axis on the last ``approach_knots`` knots (None: no such terms).
+    ``grasp_offset``: c_grasp's gripper point lies this far (m) behind G along x_G
+    (`approach.grasp_offset`: the pads' centre).
+    """
+
+    def __init__(self, geometry: ArmGeometry, layout: StateLayout, config: PhysicsConfig,
+                 x0: np.ndarray, target: str, knot_time: float, d_safe: float,
+                 force_exclude: tuple[str, ...] = (),
+                 static_geometry: ArmGeometry | None = None, forces=None,
+                 approach: np.ndarray | None = None, grasp_offset: float = 0.0):
+        self.geometry, self.layout, self.config = geometry, layout, config
+        self.grasp_offset = grasp_offset
+        self.approach = (None if approach is None
+                         else np.asarray(approach, dtype=float) / np.linalg.norm(approach))
+        self.knot_time, self.d_safe = knot_time, d_safe
+        self.force_exclude = tuple(force_exclude)
+        self.forces = forces if config.force_source == "phi" else None
+        self.static_geometry = static_geometry
+        self._max_step = max_steps(config, knot_time)
+        self.nx, self.ndx = layout.nx, layout.ndx
+        self.nz = self.ndx + ARM_DIM
+        self.p_start = layout.boxes(x0)[:, 4:7].copy()
+        self.target = target
+        self.target_index = (layout.box_index(target) if target in layout.box_names else None)
+        self.box_columns = {n: ARM_DIM + BOX_TANGENT * i
+                            for i, n in enumerate(layout.box_names)}
+        if self.target_index is None:
+            self.p_target = geometry.rest_pose(target).translation()
+
+    # -- per knot
+
+    def box_poses(self, z: np.ndarray) -> dict[str, RigidTransform]:
+        """X_WB of the kept boxes in state z."""
+        return {n: box_state_to_pose(b)
+                for n, b in zip(self.layout.box_names, self.layout.boxes(z[:self.nx]),
+                                strict=True)}
+
+    def state_terms(self, z: np.ndarray, terminal: bool, approach: bool = False
+                    ) -> dict[str, Term]:
+        """Weighted Terms over dz (nz,) of the costs on one knot's state (t >= 1); with
+        ``approach``, c_approach and c_approach_axis too (if the objective has a direction)."""
+        cfg, q = self.config, z[:ARM_DIM]
+        contacts = self.geometry.contacts(q, self.box_poses(z), self.d_safe)
+        out = {"static": self._static(z, contacts)}
+        if self.forces is None:
+            out["force"] = self._force(contacts).scaled(cfg.w_force)
+        out.update(self._box_terms(z))
+        if terminal:
+            out.update(self._terminal(z))
+        if approach and self.approach is not None:
+            out.update(self._approach(z))
+        return out
+
+    def in_approach(self, t: int, T: int) -> bool:
+        """Whether knot t of 1..T is one of the last ``approach_knots``."""
+        return t > T - self.config.approach_knots
+
+    def _static(self, z: np.ndarray, contacts: list[Contact]) -> Term:
+        """Weighted c_static over dz: at the knot from ``contacts`` (``phi_static_substeps``
+        1), else the mean over that many configurations on the segment from q^(t-1) (z's
+        tail) to q^t; in ``static_geometry`` if given. With its steep part beyond
+        ``static_depth`` (``w_static_deep``)."""
+        cfg = self.config
+        geometry = self.static_geometry or self.geometry
+        deep = (cfg.w_static_deep / cfg.w_static if cfg.w_static > 0 else 0.0, cfg.static_depth)
+        q_prev = z[self.nx:self.nx + ARM_DIM]
+        if cfg.phi_static_substeps > 1:
+            term = segment_penetration(geometry, q_prev, z[:ARM_DIM], cfg.phi_static_substeps,
+                                       self.d_safe, shelf_only=True, deep=deep,
+                                       spacing=cfg.sweep_spacing)["shelf"]
+            columns = [*range(self.ndx, self.ndx + ARM_DIM), *range(ARM_DIM)]
+            return _embed(term, columns, self.nz).scaled(cfg.w_static)
+        shelf = [c for c in contacts if c.obstacle == SHELF]
+        if self.static_geometry is not None:
+            shelf = self.static_geometry.contacts(z[:ARM_DIM], None, self.d_safe, "shelf")
+        static = penetration_term(shelf, self.d_safe, self.nz)
+        if deep[0] > 0.0:
+            static = _add(static, deep_penetration_term(shelf, deep[1], self.nz), deep[0])
+        return static.scaled(cfg.w_static)
+
+    def _force(self, contacts: list[Contact]) -> Term:
+        touching = [c for c in contacts if c.obstacle != SHELF and c.distance < 0.0
+                    and c.obstacle not in self.force_exclude]
+        if not touching:
+            return Term(0.0, np.zeros(self.nz), np.zeros((self.nz, self.nz)))
+        k = self.config.force_stiffness
+        forces = np.array([-k * c.distance for c in touching])
+        J = np.array([-k * _distance_row(c, self.nz, self.box_columns) for c in touching])
+        return costs.force(forces, J)
+
+    def _box_terms(self, z: np.ndarray) -> dict[str, Term]:
+        boxes = self.layout.boxes(z[:self.nx])
+        nz = self.nz
+        motion = Term(0.0, np.zeros(nz), np.zeros((nz, nz)))
+        upright = Term(0.0, np.zeros(nz), np.zeros((nz, nz)))
+        for i, b in enumerate(boxes):
+            start = ARM_DIM + BOX_TANGENT * i
+            m = costs.motion(b[4:7], self.p_start[i])
+            motion = _add(motion, _embed(m, [start + 3, start + 4, start + 5], nz))
+            u = costs.upright(box_state_to_pose(b).rotation().matrix(), gauss_newton=True,
+                              majorize=self.config.distance_curvature == "majorizer")
+            upright = _add(upright, _embed(u, [start, start + 1, start + 2], nz))
+        return {"motion": motion.scaled(self.config.w_motion),
+                "upright": upright.scaled(self.config.w_upright)}
+
+    def _terminal(self, z: np.ndarray) -> dict[str, Term]:
+        cfg, q = self.config, z[:ARM_DIM]
+        p, axis_z, dp, dz = self.geometry.tool(q)
+        if self.grasp_offset:
+            axis_x, dx = self.geometry.tool_axis(q, 0)
+            p, dp = p - self.grasp_offset * axis_x, dp - self.grasp_offset * dx
+        p_target, columns, first = self._target_point(z)
+        majorize = cfg.distance_curvature == "majorizer"
+        grasp = _embed(grasp_distance(p, dp, p_target, cfg.grasp_smoothing, majorize), columns,
+                       self.nz, first=first)
+        horiz = _embed(costs.gripper_horizontal(axis_z, dz), list(range(ARM_DIM)), self.nz)
+        grp_open = _embed(costs.gripper_open(q[7], OPEN), [7], self.nz)
+        return {"grasp": grasp.scaled(cfg.w_grasp), "grp_horiz": horiz.scaled(cfg.w_grp_horiz),
+                "grp_open": grp_open.scaled(cfg.w_grp_open)}
+
+    def _target_point(self, z: np.ndarray) -> tuple[np.ndarray, list[int], int | None]:
+        """c_grasp's point (the target's centre in W: its state position when kept, else its
+        resting pose), the columns of dz over (arm, that point) and `_embed`'s ``first``."""
+        arm = list(range(ARM_DIM))
+        if self.target_index is None:
+            return self.p_target, arm, ARM_DIM
+        s = self.box_columns[self.target] + 3
+        return (self.layout.boxes(z[:self.nx])[self.target_index, 4:7], arm + [s, s + 1, s + 2],
+                None)
+
+    def _approach(self, z: np.ndarray) -> dict[str, Term]:
+        """Weighted c_approach and c_approach_axis (see `PhysicsConfig.approach_knots`) on one
+        knot's state, along ``self.approach`` (unit, W)."""
+        cfg, q = self.config, z[:ARM_DIM]
+        p, _, dp, _ = self.geometry.tool(q)
+        p_target, columns, first = self._target_point(z)
+        line = _embed(costs.approach_line(p, dp, p_target, self.approach), columns, self.nz,
+                      first=first)
+        axis = _embed(costs.approach_axis(*self.geometry.tool_axis(q, 0), self.approach),
+                      list(range(ARM_DIM)), self.nz)
+        return {"approach": line.scaled(cfg.w_approach),
+                "approach_axis": axis.scaled(cfg.w_approach_axis)}
+
+    def acc_term(self, z: np.ndarray, u: np.ndarray, metric: float = 0.0) -> Term:
+        """Weighted c_acc + w_speed c_speed over (dz, du) (nz + 8,) of the interval from z
+        with control u; with ``metric`` > 0, that multiple of c_acc's (unweighted) Hessian is
+        added to the Hessian alone (`PhysicsConfig.step_smoothing`)."""
+        term = costs.acceleration(z[self.nx:], z[:ARM_DIM], u, self.knot_time)
+        cols = (list(range(self.ndx, self.nz)) + list(range(ARM_DIM))
+                + list(range(self.nz, self.nz + ARM_DIM)))
+        acc = _embed(term, cols, self.nz + ARM_DIM).scaled(self.config.w_acc)
+        if metric > 0.0:
+            smooth = _embed(term, cols, self.nz + ARM_DIM).hessian
+            acc = Term(acc.value, acc.gradient, acc.hessian + metric * smooth)
+        speed = speed_limit(z[:ARM_DIM], u, self._max_step)
+        speed = _embed(speed, list(range(ARM_DIM)) + cols[2 * ARM_DIM:], self.nz + ARM_DIM)
+        return _add(acc, speed, self.config.w_speed)
+
+    # -- the ilqr.Cost protocol
+
+    def terms(self, zs: np.ndarray, us: np.ndarray) -> dict[str, float]:
+        """Weighted value of every term over the trajectory (knots 1..T, intervals 0..T-1)."""
+        out: dict[str, float] = {}
+        T = len(us)
+        for t in range(1, T + 1):
+            terms = self.state_terms(zs[t], terminal=t == T, approach=self.in_approach(t, T))
+            for name, term in terms.items():
+                out[name] = out.get(name, 0.0) + term.value
+        out["acc"] = sum(self.acc_term(zs[t], us[t]).value for t in range(T))
+        if self.forces is not None:
+            out.update(self.phi_force_terms(zs[:T, :self.nx], us))
+        return out
+
+    def phi_force_terms(self, xs: np.ndarray, us: np.ndarray) -> dict[str, float]:
+        """Weighted c_force (and c_force_excess, see `force_cost`) from phi's contact forces
+        of the intervals (x_t, u_t)."""
+        f = np.array([self.forces.step_forces(x, u) for x, u in zip(xs, us, strict=True)])
+        return self.force_cost(f)[0]
+
+    def force_cost(self, f: np.ndarray) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
+        """Weighted c_force = w_force/2 ||f||^2 and (ours, with w_force_excess > 0)
+        c_force_excess = w_force_excess/2 ||max(0, f - force_limit)||^2 of contact-force
+        vectors f (..., nf) in N: their values, the gradient d cost / d f and the diagonal of
+        the Gauss-Newton Hessian (both shaped as f)."""
+        cfg = self.config
+        excess = np.maximum(0.0, f - cfg.force_limit)
+        values = {"force": 0.5 * cfg.w_force * float(np.sum(f * f))}
+        gradient = cfg.w_force * f
+        curvature = np.full(f.shape, cfg.w_force)
+        if cfg.w_force_excess > 0:
+            values["force_excess"] = 0.5 * cfg.w_force_excess * float(np.sum(excess ** 2))
+            gradient = gradient + cfg.w_force_excess * excess
+            curvature = curvature + cfg.w_force_excess * (excess > 0)
+        return values, gradient, curvature
+
+    def quadratize(self, zs: np.ndarray, us: np.ndarray) -> Expansion:
+        """Expansion in tangent coordinates (dz, du)."""
+        T, nz, nu = len(us), self.nz, ARM_DIM
+        lx, lu = np.zeros((T, nz)), np.zeros((T, nu))
+        lxx, luu, lux = np.zeros((T, nz, nz)), np.zeros((T, nu, nu)), np.zeros((T, nu, nz))
+        vx, vxx = np.zeros(nz), np.zeros((nz, nz))
+        for t in range(T):
+            acc = self.acc_term(zs[t], us[t], self.config.step_smoothing)
+            lx[t] += acc.gradient[:nz]
+            lu[t] += acc.gradient[nz:]
+            lxx[t] += acc.hessian[:nz, :nz]
+            luu[t] += acc.hessian[nz:, nz:]
+            lux[t] += acc.hessian[nz:, :nz]
+            if t >= 1:
+                for term in self.state_terms(zs[t], False, self.in_approach(t, T)).values():
+                    lx[t] += term.gradient
+                    lxx[t] += term.hessian
+        for term in self.state_terms(zs[T], True, self.in_approach(T, T)).values():
+            vx += term.gradient
+            vxx += term.hessian
+        if self.forces is not None:
+            self._add_phi_forces(zs, us, lx, lu, lxx, luu, lux)
+        return Expansion(lx, lu, lxx, luu, lux, vx, vxx)
+
+    def _add_phi_forces(self, zs, us, lx, lu, lxx, luu, lux) -> None:
+        """`force_cost` per interval, Gauss-Newton in (dx_t, du_t) (q_prev: no effect)."""
+        ndx = self.ndx
+        # A failed derivative evaluation (NaN) has no known effect, as in `ilqr`.
+        f, Fx, Fu = map(np.nan_to_num, self.forces.linearize_forces(zs[:len(us), :self.nx], us))
+        _, g, d = self.force_cost(f)
+        lx[:, :ndx] += np.einsum("tfi,tf->ti", Fx, g)
+        lu += np.einsum("tfi,tf->ti", Fu, g)
+        lxx[:, :ndx, :ndx] += np.einsum("tfi,tf,tfj->tij", Fx, d, Fx)
+        luu += np.einsum("tfi,tf,tfj->tij", Fu, d, Fu)
+        lux[:, :, :ndx] += np.einsum("tfi,tf,tfj->tij", Fu, d, Fx)
+
+
+def _embed(term: Term, columns: list[int], n: int, first: int | None = None) -> Term:
+    """A Term over its own arguments placed at ``columns`` of n numbers (``first``: only its
+    first arguments are kept, the rest are constants)."""
+    k = len(term.gradient) if first is None else first
+    g, H = np.zeros(n), np.zeros((n, n))
+    idx = np.asarray(columns[:k], dtype=int)
+    g[idx] = term.gradient[:k]
+    H[np.ix_(idx, idx)] = term.hessian[:k, :k]
+    return Term(term.value, g, H)
+
+
+# ----------------------------------------------------------------------------- kinematic
+
+
+class KinematicObjective:
+    """Sec. V-A / V-B objectives over the state q^t (8) and control q^(t+1), boxes fixed.
+
+    ``mode`` "pre": w_static_hull c_static_hull + w_dynamic c_dynamic (not the target) + w_vel
+    c_vel per interval, c_grasp to ``p_pregrasp`` and c_grp_horiz at the end, their Table II
+    weights times ``pre_terminal_weight`` (they stand in for the baseline's hard constraint).
+    ``mode`` "post": w_static c_static (the mean over ``post_substeps`` configurations of
+    the interval up to q^(t+1)) + w_match c_match + w_match_vel c_match_vel
+    against ``q_ref`` (T + 1, 8), + w_speed c_speed over knots ``knot_time`` (s) apart (ours:
+    pushing the arm out of the shelf made fig5's plan exceed a joint speed limit, measured).
+    """
+
+    def __init__(self, geometry: ArmGeometry, config: PhysicsConfig, mode: str, d_safe: float,
+                 target: str, q_ref: np.ndarray | None = None,
+                 p_pregrasp: np.ndarray | None = None, w_static_hull: float = 80.0,
+                 w_vel: float = 1.0, knot_time: float = 0.2):
+        if mode not in ("pre", "post"):
+            raise ValueError(f"mode must be 'pre' or 'post', got {mode!r}")
+        self.geometry, self.config, self.mode, self.d_safe = geometry, config, mode, d_safe
+        self.target, self.q_ref, self.p_pregrasp = target, q_ref, p_pregrasp
+        self.w_static_hull, self.w_vel = w_static_hull, w_vel
+        self._max_step = max_steps(config, knot_time)
+
+    def running(self, t: int, q: np.ndarray, u: np.ndarray) -> dict[str, Term]:
+        """Weighted Terms over (q, u) (16,) of interval t."""
+        cfg, eye = self.config, np.eye(ARM_DIM)
+        if self.mode == "pre":
+            hull = segment_penetration(self.geometry, q, u, cfg.hull_substeps, self.d_safe,
+                                       (self.target,), spacing=cfg.sweep_spacing)
+            return {"static_hull": hull["shelf"].scaled(self.w_static_hull),
+                    "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
+                    "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
+        static = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
+                                     shelf_only=True, spacing=cfg.sweep_spacing)["shelf"]
+        on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
+        match = costs.match(u, self.q_ref[t + 1])
+        mvel = costs.match_velocity(u, q, self.q_ref[t + 1], self.q_ref[t])
+        return {"static": static.scaled(cfg.w_static),
+                "match": _pull(match, on_u).scaled(cfg.w_match),
+                "match_vel": _reorder(mvel).scaled(cfg.w_match_vel),
+                "speed": speed_limit(q, u, self._max_step).scaled(cfg.w_speed)}
+
+    def terminal(self, q: np.ndarray) -> dict[str, Term]:
+        """Weighted Terms over q (8,) at the last knot ("pre" only)."""
+        if self.mode != "pre":
+            return {}
+        p, axis_z, dp, dz = self.geometry.tool(q)
+        grasp = costs.grasp(p, dp, self.p_pregrasp)
+        grasp = Term(grasp.value, grasp.gradient[:ARM_DIM], grasp.hessian[:ARM_DIM, :ARM_DIM])
+        w = self.config.pre_terminal_weight
+        return {"grasp": grasp.scaled(w * self.config.w_grasp),
+                "grp_horiz": costs.gripper_horizontal(axis_z, dz).scaled(
+                    w * self.config.w_grp_horiz)}
+
+    def terms(self, qs: np.ndarray, us: np.ndarray) -> dict[str, float]:
+        """Weighted value of every term over the path."""
+        out: dict[str, float] = {}
+        for t in range(len(us)):
+            for name, term in self.running(t, qs[t], us[t]).items():
+                out[name] = out.get(name, 0.0) + term.value
+        for name, term in self.terminal(qs[-1]).items():
+            out[name] = term.value
+        return out
+
+    def quadratize(self, qs: np.ndarray, us: np.ndarray) -> Expansion:
+        """Expansion over (q, u)."""
+        T, n = len(us), ARM_DIM
+        lx, lu = np.zeros((T, n)), np.zeros((T, n))
+        lxx, luu, lux = np.zeros((T, n, n)), np.zeros((T, n, n)), np.zeros((T, n, n))
+        for t in range(T):
+            for term in self.running(t, qs[t], us[t]).values():
+                lx[t] += term.gradient[:n]
+                lu[t] += term.gradient[n:]
+                lxx[t] += term.hessian[:n, :n]
+                luu[t] += term.hessian[n:, n:]
+                lux[t] += term.hessian[n:, :n]
+        vx, vxx = np.zeros(n), np.zeros((n, n))
+        for term in self.terminal(qs[-1]).values():
+            vx += term.gradient
+            vxx += term.hessian
+        return Expansion(lx, lu, lxx, luu, lux, vx, vxx)
+
+
+def _reorder(term: Term) -> Term:
+    """A Term over (u, q) as one over (q, u)."""
+    n = len(term.gradient) // 2
+    p = np.r_[np.arange(n, 2 * n), np.arange(n)]
+    return Term(term.value, term.gradient[p], term.hessian[np.ix_(p, p)])
+
+
+def _pull(term: Term, S: np.ndarray) -> Term:
+    """A Term over y = S w as one over w (S constant)."""
+    return Term(term.value, S.T @ term.gradient, S.T @ term.hessian @ S)

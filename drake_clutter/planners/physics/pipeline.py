@@ -1,0 +1,362 @@
+"""The physics-based planner of Sec. V: per baseline candidate, pre-processing, iLQR through phi,
+post-processing.
+
+Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `objective`):
+
+1. ``pre`` (Sec. V-A): the kinematic arm alone, boxes held fixed where the scene puts them:
+   c_static_hull + c_dynamic + c_vel, with c_grasp to the candidate's pre-grasp point and
+   c_grp_horiz at the end instead of the baseline's terminal pose constraint. A kinematic iLQR
+   (state q^t, control q^(t+1), A = 0, B = I) is far cheaper than a SNOPT program here and
+   reuses the same cost code.
+2. ``sphere`` (Sec. V): ``sphere_iterations`` iLQR iterations through phi with the gripper as
+   one sphere (the ``sphere_gripper`` arm in phi and in the cost geometry). The sphere encloses
+   the open gripper, so at the pre-grasp it engulfs the target: in this stage the target is
+   taken out of phi (welded 10 m below the floor) and has no c_force; c_grasp aims at its
+   resting pose (ours: with the target in phi the sphere shoves it away and c_force, 5e8 on
+   fig5, drove the arm 40 cm off the target; welded in place, SAP failed on the first rollout).
+   c_static keeps the capsule gripper: the sphere (radius 0.118 m) cannot reach the pre-grasp
+   without sinking into the board (c_static ~1e3 on fig5, measured);
+3. ``full``: the remaining ``iterations - sphere_iterations`` with the capsule arm;
+4. ``post`` (Sec. V-B): the kinematic arm again, c_static in the evaluation geometry (at
+   ``post_substeps`` configurations per knot interval) + c_match + c_match_vel to the physics
+   plan.
+
+Each phi stage prunes the boxes against its initial path (`pruning.make_pruned_spec`), settles
+the kept boxes in phi under the arm at the start configuration (``dynamics.settle_time``),
+adds the held knots after Delta to its objective (`stage.HoldTail`, Table II's "all" times) and
+runs iLQR in the tangent space of the augmented state z = [x, q^(t-1)] (`stage.AugmentedPhi`;
+rotations as rotation vectors, `ilqr.solve`'s ``difference``). The start q^0 is fixed; the
+controls q^1..q^Delta are box-bounded by the PR2's joint limits and the gripper's [0, 0.09] m
+(clamped in the forward pass, the feedback of bound controls dropped: see `ilqr`).
+
+A phi stage whose initial path phi cannot simulate starts again from the baseline's path (its
+record's ``started_from`` says so). A failure (phi diverging on that too, a solver error) is a
+candidate with status ``optimisation_failed`` and a reason, never an exception.
+
+The result is a `trajectory.Candidate` (planner "physics") whose ``details`` carry, per stage,
+the cost history per term, iterations and stop reason; ``timings`` the seconds per stage; and
+``details["feedback"]`` the last phi stage's gains K_t (8 x nz, tangent coordinates of z) and
+k_t with the kept boxes' names (the state layout they refer to).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from drake_clutter.common.config import Config, ConfigError
+from drake_clutter.phi.derivatives import check_derivative_method
+from drake_clutter.phi.workers import WorkerPool
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
+from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
+from drake_clutter.robot import pr2
+from drake_clutter.scene.scenes import Scene
+from drake_clutter.solvers import ilqr
+from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
+
+ROLL_BOUND = 4 * np.pi  # rad, bound of the continuous rolls' controls; ours: two turns either
+# way is more than any reach needs, and a bound keeps a bad feedback gain from sending phi a
+# control of 1e200 rad (seen on the default scene)
+
+
+class PhiFailure(RuntimeError):
+    """phi could not simulate a stage's initial path."""
+
+
+class KinematicArm:
+    """The arm alone as iLQR dynamics: state q^t (8), control q^(t+1), x_{t+1} = u_t."""
+
+    def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The next configuration is the control."""
+        return np.array(u, dtype=float)
+
+    def linearize(self, xs: np.ndarray, us: np.ndarray):
+        """A = 0, B = I at every interval."""
+        T, n = len(us), xs.shape[1]
+        return np.zeros((T, n, n)), np.repeat(np.eye(n)[None], T, axis=0)
+
+
+def control_bounds() -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(u_min, u_max): the arm's joint limits (rad; +-ROLL_BOUND for the continuous rolls) and
+    the gripper opening's [0, GRIPPER_MAX_OPENING] (m)."""
+    limits = [(max(lo, -ROLL_BOUND), min(hi, ROLL_BOUND))
+              for lo, hi in pr2.arm_joint_limits().values()]
+    return (tuple(lo for lo, _ in limits) + (0.0,),
+            tuple(hi for _, hi in limits) + (pr2.GRIPPER_MAX_OPENING,))
+
+
+def solver_settings(config: Config, iterations: int, knot_time: float | None = None
+              ) -> ilqr.ILQRSettings:
+    """The solver's settings (line search of `PhysicsConfig`); with ``knot_time`` (s) those of
+    a phi stage: also the trust region, the open-loop retry, the failed-search stop (the
+    kinematic stages need mu ~ 1 before their first step, measured on fig5/fig6) and the cost
+    floor 0 (every Table I term is non-negative; fig6's first model predicted a decrease of
+    6.8e5 from an objective of 2.7e3 and every rollout failed, measured)."""
+    lo, hi = control_bounds()
+    cfg = config.physics
+    settings = ilqr.ILQRSettings(max_iterations=iterations, tolerance=cfg.tolerance,
+                                 u_min=lo, u_max=hi, line_search_steps=cfg.line_search_steps,
+                                 adaptive_step=cfg.adaptive_step)
+    if knot_time is None:
+        return settings
+    limit = cfg.step_limit_fraction * max_steps(cfg, knot_time)
+    return replace(settings, open_loop_fallback=cfg.open_loop_fallback, cost_floor=0.0,
+                   max_failed_searches=cfg.max_failed_searches, min_step=cfg.min_step,
+                   feedback=cfg.feedback,
+                   step_limit=tuple(float(v) for v in limit))
+
+
+def _stage_record(result: ilqr.ILQRResult, seconds: float, extra: dict | None = None) -> dict:
+    return {"iterations": result.iterations, "stop_reason": str(result.stop_reason),
+            "seconds": seconds, "cost_history": [float(c) for c in result.cost_history],
+            "term_history": [{k: float(v) for k, v in h.items()} for h in result.term_history],
+            "timings": dict(result.timings), "log": _json_log(result.log), **(extra or {})}
+
+
+def _json_log(log: list[dict]) -> list[dict]:
+    return [{k: (v if isinstance(v, bool) else float(v)) for k, v in e.items()} for e in log]
+
+
+def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
+               geometry: ArmGeometry | None = None) -> tuple[np.ndarray, ilqr.ILQRResult]:
+    """Sec. V-A on a knot path (T + 1, 8): the path with less box contact, and the solver's
+    result."""
+    geometry = geometry or ArmGeometry(scene, "capsules")
+    objective = KinematicObjective(
+        geometry, config.physics, "pre", config.baseline.d_safe, scene.target,
+        p_pregrasp=geometry.tool(q_init[-1])[0], w_static_hull=config.baseline.w_static_hull,
+        w_vel=(config.baseline.w_vel if config.physics.pre_w_vel is None
+               else config.physics.pre_w_vel))
+    result = ilqr.solve(KinematicArm(), objective, q_init[0], q_init[1:],
+                        solver_settings(config, config.physics.pre_iterations))
+    return result.xs, result
+
+
+def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
+                geometry: ArmGeometry | None = None) -> tuple[np.ndarray, ilqr.ILQRResult]:
+    """Sec. V-B on a knot path (T + 1, 8): c_static in the evaluation geometry, c_match and
+    c_match_vel to ``q_ref``."""
+    geometry = geometry or ArmGeometry(scene, config.physics.post_variant)
+    objective = KinematicObjective(geometry, config.physics, "post", config.baseline.d_safe,
+                                   scene.target, q_ref=q_ref,
+                                   knot_time=config.baseline.knot_time)
+    result = ilqr.solve(KinematicArm(), objective, q_ref[0], q_ref[1:],
+                        solver_settings(config, config.physics.post_iterations))
+    return result.xs, result
+
+
+def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
+                  pool: WorkerPool | None = None, times: np.ndarray | None = None,
+                  alternatives: tuple[np.ndarray, ...] = (),
+                  approach: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
+    """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
+    default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
+    stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
+    shape and start), iLQR starts from whichever of ``q`` and them has the lowest objective in
+    this stage's phi (pruned to ``q``); info's ``start_objectives`` lists them. ``approach``:
+    the final approach direction in W of c_approach (`PhysicsConfig.approach_knots`)."""
+    knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+    with stage_problem(scene, q, config, variant, pool, knot_time, approach) as problem:
+        augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
+        starts = [q, *alternatives]
+        values = [_path_objective(augmented, objective, z0, path) for path in starts]
+        if not np.any(np.isfinite(values)):
+            raise PhiFailure("phi failed on the initial rollout")
+        q = starts[int(np.argmin(values))]
+        result = ilqr.solve(augmented, objective, z0, q[1:],
+                            solver_settings(config, iterations, knot_time),
+                            difference=augmented.difference)
+        info = {"kept_boxes": list(augmented.layout.box_names),
+                "pruning": problem.report.summary(),
+                "phi_failures": problem.dynamics.phi.failures,
+                "autodiff_fallbacks": problem.dynamics.autodiff_fallbacks,
+                "start_objectives": [float(v) for v in values]}
+    return np.vstack([q[:1], result.us]), result, info
+
+
+def path_terms(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.ndarray,
+               q: np.ndarray) -> dict[str, float] | None:
+    """A phi stage's objective per Table I term for the knot path ``q`` (T + 1, 8) rolled out
+    from z0; None where phi's rollout is not finite."""
+    zs = ilqr.rollout(dynamics, z0, q[1:])
+    if not np.all(np.isfinite(zs)):
+        return None
+    return {k: float(v) for k, v in objective.terms(zs, q[1:]).items()}
+
+
+def _path_objective(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.ndarray,
+                    q: np.ndarray) -> float:
+    """The stage's objective of the knot path ``q`` rolled out from z0 (inf where phi fails)."""
+    terms = path_terms(dynamics, objective, z0, q)
+    return float("inf") if terms is None else float(sum(terms.values()))
+
+
+def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
+                          variant: str, iterations: int, pool, times,
+                          alternatives: tuple[np.ndarray, ...] = (), approach=None):
+    """`physics_stage` from ``paths[0]`` (or the best of ``alternatives``, see there); if phi
+    cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
+    the pre-processing or sphere stage produced with the hydroelastic phi, measured on
+    fig7); its info says which."""
+    try:
+        q, result, info = physics_stage(scene, paths[0], config, variant, iterations, pool,
+                                        times, alternatives, approach)
+        best = int(np.argmin(info["start_objectives"]))
+        return q, result, {**info, "started_from": "previous stage" if best == 0 else
+                           f"alternative {best}"}
+    except PhiFailure as exc:
+        if np.array_equal(paths[0], paths[1]):
+            raise
+        q, result, info = physics_stage(scene, paths[1], config, variant, iterations, pool,
+                                        times, approach=approach)
+        return q, result, {**info, "started_from": f"baseline ({exc})"}
+
+
+def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> Candidate:
+    return Candidate(candidate.alpha, CandidateStatus.OPTIMISATION_FAILED, reason,
+                     candidate.trajectory, planner="physics", timings=timings, details=details)
+
+
+def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
+                       pool: WorkerPool | None = None) -> Candidate:
+    """Sec. V on one baseline candidate (module docstring); a non-"ok" candidate comes back
+    as it is, relabelled planner "physics"."""
+    if not candidate.ok:
+        return replace(candidate, planner="physics",
+                       reason=f"no initialization: {candidate.reason or candidate.status}")
+    cfg = config.physics
+    q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
+    timings, details = {}, {"stages": {}, "initialization": candidate.planner}
+    # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV);
+    # only c_approach reads it.
+    approach = (ArmGeometry(scene, "capsules").tool_axis(baseline_q[-1], 0)[0]
+                if cfg.approach_knots > 0 else None)
+    tic = time.perf_counter()
+    try:
+        q, result = preprocess(scene, q, config)
+    except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
+        timings["pre"] = time.perf_counter() - tic
+        return _failed(candidate, f"pre stage: {exc}", timings, details)
+    timings["pre"] = time.perf_counter() - tic
+    details["stages"]["pre"] = _stage_record(result, timings["pre"])
+    q_pre = q
+    stages = (("sphere", "sphere_gripper", min(cfg.sphere_iterations, cfg.iterations)),
+              ("full", "capsules", cfg.iterations - min(cfg.sphere_iterations, cfg.iterations)))
+    last = None
+    for name, variant, iterations in stages:
+        if iterations <= 0:
+            continue
+        tic = time.perf_counter()
+        try:
+            # The full stage may start from the pre-processed path instead of the sphere
+            # stage's: that stage's phi had no target and another gripper, and its path knocked
+            # the target 14 cm away in the full stage's phi (fig6, measured).
+            others = (q_pre,) if name == "full" and q is not q_pre else ()
+            q, result, info = _phi_stage_or_restart(scene, (q, baseline_q), config, variant,
+                                                    iterations, pool, candidate.trajectory.times,
+                                                    others, approach)
+        except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
+            timings[name] = time.perf_counter() - tic
+            return _failed(candidate, f"{name} stage: {exc}", timings, details)
+        timings[name] = time.perf_counter() - tic
+        details["stages"][name] = _stage_record(result, timings[name], info)
+        last = (result, info)
+    tic = time.perf_counter()
+    try:
+        q, result = postprocess(scene, q, config)
+    except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
+        timings["post"] = time.perf_counter() - tic
+        return _failed(candidate, f"post stage: {exc}", timings, details)
+    timings["post"] = time.perf_counter() - tic
+    details["stages"]["post"] = _stage_record(result, timings["post"])
+    if last is not None:
+        details["feedback"] = {"boxes": last[1]["kept_boxes"], "K": last[0].K.tolist(),
+                               "k": last[0].k.tolist()}
+    trajectory = Trajectory(candidate.trajectory.times.copy(), q)
+    return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="physics",
+                     timings=timings, details=details)
+
+
+def check_config(config: Config) -> None:
+    """Raises ConfigError naming the first ``physics.*`` field that makes no sense."""
+    cfg = config.physics
+    checks = (("iterations", cfg.iterations >= 0, "at least 0"),
+              ("sphere_iterations", cfg.sphere_iterations >= 0, "at least 0"),
+              ("pre_iterations", cfg.pre_iterations >= 0, "at least 0"),
+              ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
+              ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
+              ("post_substeps", cfg.post_substeps >= 1, "at least 1"),
+              ("sweep_spacing", cfg.sweep_spacing >= 0.0, "non-negative (0 = off)"),
+              ("force_stiffness", cfg.force_stiffness > 0, "positive"),
+              ("hold_knots", cfg.hold_knots >= 0, "at least 0"),
+              ("hold_derivative_stride",
+               cfg.hold_derivative_stride is None or cfg.hold_derivative_stride >= 1,
+               "at least 1, or null for dynamics.derivative_stride"),
+              ("w_static_deep", cfg.w_static_deep >= 0, "non-negative"),
+              ("static_depth", cfg.static_depth >= 0, "non-negative"),
+              ("phi_static_substeps", cfg.phi_static_substeps >= 1, "at least 1"),
+              ("w_static_deep", cfg.w_static_deep == 0 or cfg.w_static > 0,
+               "0 while physics.w_static is 0 (it scales the steep part)"),
+              ("w_force_excess", cfg.w_force_excess >= 0, "non-negative"),
+              ("force_limit", cfg.force_limit >= 0, "non-negative"),
+              ("w_speed", cfg.w_speed >= 0, "non-negative"),
+              ("approach_knots", cfg.approach_knots >= 0, "at least 0"),
+              ("min_step", cfg.min_step >= 0, "non-negative (0 = off)"),
+              ("step_smoothing", cfg.step_smoothing >= 0, "non-negative (0 = off)"),
+              ("w_approach", cfg.w_approach >= 0, "non-negative"),
+              ("w_approach_axis", cfg.w_approach_axis >= 0, "non-negative"),
+              ("speed_fraction", cfg.speed_fraction > 0, "positive"),
+              ("tolerance", cfg.tolerance >= 0, "non-negative"),
+              ("line_search_steps", cfg.line_search_steps >= 1, "at least 1"),
+              ("max_failed_searches", cfg.max_failed_searches >= 1, "at least 1"),
+              ("pre_w_vel", cfg.pre_w_vel is None or cfg.pre_w_vel >= 0,
+               "non-negative (or null: the baseline's w_vel)"),
+              ("step_limit_fraction", cfg.step_limit_fraction > 0, "positive"),
+              ("max_spectral_radius", cfg.max_spectral_radius > 0, "positive"),
+              ("post_variant", cfg.post_variant in pr2.VARIANTS,
+               f"one of {', '.join(pr2.VARIANTS)}"))
+    for name, ok, what in checks:
+        if not ok:
+            raise ConfigError("<configuration>", f"physics.{name}",
+                              f"must be {what}, got {getattr(cfg, name)!r}")
+    check_derivative_method(config.dynamics, config.world)
+
+
+def plan_physics(scene: Scene, config: Config | None = None,
+                 candidates: list[Candidate] | None = None,
+                 pool: WorkerPool | None = None) -> list[Candidate]:
+    """Sec. V on every candidate (default: `baseline.plan_baseline` of the scene), in order:
+    one physics Candidate each. A shared worker pool for phi's derivatives is created (and
+    closed) here unless one is passed in."""
+    config = config or Config()
+    check_config(config)
+    if candidates is None:
+        candidates = plan_baseline(scene, config.baseline)
+    own = pool is None and config.dynamics.workers > 0
+    pool = WorkerPool(config.dynamics.workers) if own else pool
+    try:
+        return [optimise_candidate(scene, c, config, pool) for c in candidates]
+    finally:
+        if own:
+            pool.close()
+
+
+def stages_table(candidates: list[Candidate]) -> str:
+    """A text table, one row per physics candidate: alpha, status, seconds per stage, the
+    objective before and after the phi stages, and the reason."""
+    rows = [f"{'alpha':>7} {'status':20} {'pre s':>6} {'sphere s':>8} {'full s':>7} "
+            f"{'post s':>6} {'cost start':>11} {'cost end':>11}  reason"]
+    for c in candidates:
+        t, stages = c.timings, c.details.get("stages", {})
+        phi = [stages[n] for n in ("sphere", "full") if n in stages]
+        start = f"{phi[0]['cost_history'][0]:.4g}" if phi else "-"
+        end = f"{phi[-1]['cost_history'][-1]:.4g}" if phi else "-"
+        rows.append(f"{c.alpha:+7.3f} {c.status:20} {t.get('pre', 0.0):6.1f} "
+                    f"{t.get('sphere', 0.0):8.1f} {t.get('full', 0.0):7.1f} "
+                    f"{t.get('post', 0.0):6.1f} {start:>11} {end:>11}  {c.reason}")
+    return "\n".join(rows)

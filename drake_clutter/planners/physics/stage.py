@@ -1,0 +1,283 @@
+"""A phi stage's problem (Sec. V): phi as iLQR's dynamics over the augmented state
+z = [x, q^(t-1)] (`AugmentedPhi`, its line-search forward passes run in the derivative workers),
+the objective with the knots held after Delta (`HoldTail`), the cap on phi's box-to-box
+Jacobians (`cap_spectral_radius`), and `stage_problem`, which builds them for a scene and a knot
+path: pruned phi, boxes settled at the start, the arm variant's cost geometry. `physics` runs
+iLQR on it (`pipeline.physics_stage`).
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+
+from drake_clutter.common.config import Config
+from drake_clutter.phi.derivatives import PhiDynamics
+from drake_clutter.phi.dynamics import (
+    ARM_DIM,
+    StateLayout,
+    initial_state,
+    make_spec,
+    scene_box_states,
+)
+from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.workers import WorkerPool
+from drake_clutter.planners.approach import grasp_offset
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.objective import PhysicsObjective
+from drake_clutter.scene.scenes import Scene
+from drake_clutter.solvers import ilqr
+
+PARKED_TARGET = (0.0, 0.0, -10.0)  # m, where the sphere stage welds the target in phi (away
+# from everything: out of the simulation)
+
+
+class AugmentedPhi:
+    """phi with the previous arm configuration appended: z = [x, q^(t-1)], tangent dz =
+    [dx, dq^(t-1)]; ``linearize`` returns tangent Jacobians, ``difference`` the tangent
+    difference (both for `ilqr.solve`). With ``parallel`` and a worker pool in ``dynamics``
+    the line search's forward passes run in the workers (`forward_passes`), each followed by
+    ``tail_knots`` knots of the held arm (`HoldTail`'s rollout) so the objective finds them."""
+
+    def __init__(self, dynamics: PhiDynamics, max_spectral_radius: float = float("inf"),
+                 parallel: bool = False, tail_knots: int = 0):
+        self.dynamics, self.layout = dynamics, dynamics.layout
+        self.nx, self.ndx = self.layout.nx, self.layout.ndx
+        self.max_spectral_radius = max_spectral_radius
+        self.parallel, self.tail_knots = parallel, tail_knots
+
+    @property
+    def parallel_passes(self) -> int:
+        """Forward passes `forward_passes` runs at once (`ilqr`'s parallel line search)."""
+        pool = getattr(self.dynamics, "pool", None)
+        return pool.workers if self.parallel and pool is not None else 1
+
+    def forward_passes(self, zs, us, k, K, alphas, lo, hi, limit) -> list:
+        """`ilqr.forward_pass` (with this state difference) at each step size in ``alphas``,
+        at once in the dynamics' workers: [(zs, us)]. Their phi steps, the held-arm tails
+        included, are remembered by the dynamics as if stepped here."""
+        spec = self.dynamics.spec
+        tasks = [("call", spec.key, spec, _policy_pass,
+                  (zs, us, k, K, alpha, lo, hi, limit, self.tail_knots)) for alpha in alphas]
+        out = []
+        for new_zs, new_us, records, failures in self.dynamics.pool.map(tasks):
+            self.dynamics.remember_steps(records)
+            self.dynamics.phi.failures += failures
+            out.append((new_zs, new_us))
+        return out
+
+    def step(self, t: int, z: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """[phi(x, u), q^t]; all NaN when phi's result is not a state (non-finite, or a
+        quaternion that lost its unit norm: SAP overflowing on a wild control)."""
+        x = self.dynamics.step(t, z[:self.nx], u)
+        quats = self.layout.boxes(x)[:, :4]
+        if not np.all(np.isfinite(x)) or np.any(np.abs(np.linalg.norm(quats, axis=1) - 1) > 1e-6):
+            return np.full(len(z), np.nan)
+        return np.concatenate([x, z[:ARM_DIM]])
+
+    def linearize(self, zs: np.ndarray, us: np.ndarray):
+        """A (T, nz, nz), B (T, nz, 8) in tangent coordinates."""
+        A_x, B_x = self.dynamics.linearize_tangent(zs[:, :self.nx], us)
+        cap_spectral_radius(A_x, self.max_spectral_radius)
+        T, nz = len(us), self.ndx + ARM_DIM
+        A, B = np.zeros((T, nz, nz)), np.zeros((T, nz, ARM_DIM))
+        A[:, :self.ndx, :self.ndx] = A_x
+        A[:, self.ndx:, :ARM_DIM] = np.eye(ARM_DIM)  # q_prev' = q^t (x's arm part)
+        B[:, :self.ndx] = B_x
+        return A, B
+
+    def difference(self, z_a: np.ndarray, z_b: np.ndarray) -> np.ndarray:
+        """z_a (-) z_b in tangent coordinates."""
+        return np.concatenate([self.layout.difference(z_a[:self.nx], z_b[:self.nx]),
+                               z_a[self.nx:] - z_b[self.nx:]])
+
+
+class _RecordedPhi:
+    """A worker's `Phi` as the stepping half of `PhiDynamics` (``step(t, x, u)``,
+    ``layout``), keeping every step's (x, u) and `Phi.step_full` result."""
+
+    def __init__(self, phi):
+        self.phi, self.layout, self.records = phi, phi.layout, []
+
+    def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """phi(x, u), recorded (``t`` is unused: phi is time-invariant)."""
+        result = self.phi.step_full(x, u)
+        self.records.append(((np.array(x, dtype=float), np.array(u, dtype=float)), result))
+        return result[0].copy()
+
+
+def _policy_pass(phi, zs, us, k, K, alpha, lo, hi, limit, tail_knots: int):
+    """Run in a derivative worker (`AugmentedPhi.forward_passes`): the forward pass over this
+    worker's ``phi`` and, when it stayed finite, ``tail_knots`` knots with the arm held at its
+    end (`HoldTail.tail`). Returns (zs, us, the steps as ((x, u), result), phi failures)."""
+    recorded, failures = _RecordedPhi(phi), phi.failures
+    augmented = AugmentedPhi(recorded)
+    new_zs, new_us = ilqr.forward_pass(augmented, zs, us, k, K, alpha, lo, hi,
+                                       augmented.difference, limit)
+    if tail_knots and np.all(np.isfinite(new_zs)):
+        ilqr.rollout(recorded, new_zs[-1][:augmented.nx], _held(new_zs[-1], tail_knots)[1])
+    return new_zs, new_us, recorded.records, phi.failures - failures
+
+
+def _held(z_last: np.ndarray, knots: int) -> tuple[np.ndarray, np.ndarray]:
+    """The tail's hold after the last knot z_last (its arm configuration, (8,)) and the tail's
+    controls, that hold repeated (knots, 8)."""
+    hold = np.array(z_last[:ARM_DIM], dtype=float)
+    return hold, np.tile(hold, (knots, 1))
+
+
+class HoldTail:
+    """The stage's objective plus the knots after Delta (Table II: c_force, c_motion and
+    c_upright are active at "all" times, c_static and c_acc at t <= Delta): phi goes on for
+    ``knots`` knots with the arm held still at q^Delta, and those knots' c_motion, c_upright
+    and c_force add to the objective, so a box set toppling or sliding off by the last knots is
+    paid for as it falls (Sec. III's evaluation replays until the boxes rest). The tail is a
+    function of the last state alone, V(z_T) = sum_k c(y_k), y_0 = x_T, y_(k+1) = phi(y_k,
+    q^Delta); its expansion enters the terminal vx, vxx through the chain of the tail's
+    Jacobians, Gauss-Newton as iLQR treats its knots (its box blocks capped like the stage's).
+    ``ilqr.Cost`` protocol over the augmented state z = [x, q^(t-1)] of `AugmentedPhi`."""
+
+    def __init__(self, objective: PhysicsObjective, dynamics: PhiDynamics, knots: int,
+                 max_spectral_radius: float = float("inf"), stride: int | None = None):
+        self.objective, self.dynamics, self.knots = objective, dynamics, knots
+        self.max_spectral_radius = max_spectral_radius
+        self.stride = stride  # the tail's derivative stride (None: phi's)
+        self.nx, self.ndx = dynamics.layout.nx, dynamics.layout.ndx
+
+    def tail(self, z_last: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """States y_0..y_K (K + 1, nx) of the held arm after z_last, the hold (8,) and the
+        tail's controls (K, 8)."""
+        hold, holds = _held(z_last, self.knots)
+        return self.dynamics.rollout(z_last[:self.nx], holds), hold, holds
+
+    def _knot_terms(self, y: np.ndarray, hold: np.ndarray) -> dict:
+        """Weighted terms (over dz) at a tail state: those of every knot but c_static."""
+        terms = self.objective.state_terms(np.concatenate([y, hold]), terminal=False)
+        terms.pop("static", None)
+        return terms
+
+    def terms(self, zs: np.ndarray, us: np.ndarray) -> dict[str, float]:
+        """The objective's terms with the tail's added to c_motion, c_upright, c_force."""
+        out = self.objective.terms(zs, us)
+        ys, hold, holds = self.tail(zs[-1])
+        if not np.all(np.isfinite(ys)):
+            return {**out, "hold": float("inf")}
+        for y in ys[1:]:
+            for name, term in self._knot_terms(y, hold).items():
+                out[name] = out.get(name, 0.0) + term.value
+        if self.objective.forces is not None:
+            for name, value in self.objective.phi_force_terms(ys[:-1], holds).items():
+                out[name] = out.get(name, 0.0) + value
+        return out
+
+    def quadratize(self, zs: np.ndarray, us: np.ndarray) -> ilqr.Expansion:
+        """The objective's expansion with the tail's in vx, vxx over x_T's tangent dx."""
+        exp = self.objective.quadratize(zs, us)  # first: it reuses phi's last linearisation
+        ys, hold, holds = self.tail(zs[-1])
+        if not np.all(np.isfinite(ys)):
+            return exp
+        A, B = map(np.nan_to_num, self.dynamics.linearize_tangent(ys, holds, self.stride))
+        ndx = self.ndx
+        A[:, :, :ARM_DIM] += B  # the hold is x_T's arm: du = dx_arm
+        cap_spectral_radius(A, self.max_spectral_radius)
+        hold_rows = np.zeros((ARM_DIM, ndx))
+        hold_rows[:, :ARM_DIM] = np.eye(ARM_DIM)
+        J = np.eye(ndx)  # d y_k / d x_T
+        forces = self.objective.forces is not None
+        if forces:
+            f, Fx, Fu = map(np.nan_to_num,
+                            self.dynamics.linearize_forces(ys, holds, self.stride))
+            _, g, d = self.objective.force_cost(f)
+        for k in range(self.knots):
+            if forces:
+                G = Fx[k] @ J + Fu[k] @ hold_rows
+                exp.vx[:ndx] += G.T @ g[k]
+                exp.vxx[:ndx, :ndx] += G.T @ (d[k][:, None] * G)
+            J = A[k] @ J
+            P = np.vstack([J, hold_rows])  # d z_k / d x_T, z_k = [y_k, hold]
+            for term in self._knot_terms(ys[k + 1], hold).values():
+                exp.vx[:ndx] += P.T @ term.gradient
+                exp.vxx[:ndx, :ndx] += P.T @ term.hessian @ P
+        return exp
+
+
+def cap_spectral_radius(A: np.ndarray, cap: float) -> np.ndarray:
+    """Scales, in place, the box-to-box block of every tangent Jacobian A_t (T, ndx, ndx) whose
+    spectral radius exceeds ``cap`` down to it; returns the radii before. The arm's rows are
+    exact (zero: the arm is kinematic), so that block's radius is A_t's.
+
+    Why: a box toppling or rocking on an edge is locally unstable (an inverted pendulum grows
+    by e^(sqrt(g/l) 0.2 s) ~ 9 a knot), and phi's A_t had radii of 2-230 on fig8 (the same
+    at FD steps 1e-6 to 1e-3: physics, not noise). Through 29 knots the costate V_x reached
+    1e12 and every backward pass predicted more decrease than the whole objective, up to mu =
+    1e10 (measured). Capped at 1, perturbations are modelled as persisting rather than
+    growing; the line search on phi itself still accepts only real decreases."""
+    radii = np.zeros(len(A))
+    boxes = slice(ARM_DIM, A.shape[1])
+    for t in range(len(A)):
+        block = A[t, boxes, boxes]
+        if block.size == 0 or not np.all(np.isfinite(block)):
+            continue
+        radii[t] = float(np.max(np.abs(np.linalg.eigvals(block))))
+        if radii[t] > cap:
+            A[t, boxes, boxes] *= cap / radii[t]
+    return radii
+
+
+@dataclass
+class StageProblem:
+    """What a phi stage optimises: phi (`PhiDynamics`, and as iLQR sees it), the objective
+    (with the hold tail), the start z0 = [x0, q^0] (boxes settled in phi), the pruning report
+    and the boxes held out of c_force."""
+
+    dynamics: PhiDynamics
+    augmented: AugmentedPhi
+    objective: PhysicsObjective | HoldTail
+    z0: np.ndarray
+    report: object
+    held: tuple[str, ...]
+
+
+@contextmanager
+def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
+                  pool: WorkerPool | None = None, knot_time: float | None = None,
+                  approach: np.ndarray | None = None):
+    """The `StageProblem` of a phi stage (``variant`` arm) about the knot path ``q`` (T + 1,
+    8; phi pruned to it), ``knot_time`` s apart (default ``baseline.knot_time``); its phi is
+    closed on leaving the ``with`` block. ``approach``: as in `physics_stage`."""
+    knot_time = knot_time or config.baseline.knot_time
+    spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
+                                    variant)
+    held = (scene.target,) if variant == "sphere_gripper" else ()
+    if held and config.physics.sphere_target == "passes":
+        dynamic = [*spec.dynamic_boxes, *[n for n in held if n not in spec.dynamic_boxes]]
+        spec = make_spec(scene, dynamic, None, knot_time, config.dynamics, config.world,
+                         variant, arm_passes=held)
+        held = ()
+    elif held:  # the sphere encloses the open gripper, where the target belongs at the end
+        states = scene_box_states(scene)
+        states[scene.target] = states[scene.target].copy()
+        states[scene.target][4:7] = PARKED_TARGET
+        spec = make_spec(scene, [n for n in spec.dynamic_boxes if n not in held], states,
+                         knot_time, config.dynamics, config.world, variant)
+    layout: StateLayout = spec.layout
+    # The sphere reaches 3 cm below the board at the pre-grasp height: c_static keeps the
+    # capsule gripper in that stage.
+    static = ArmGeometry(scene, "capsules") if variant == "sphere_gripper" else None
+    cfg = config.physics
+    with PhiDynamics(spec, pool) as dynamics:
+        x0 = dynamics.phi.settle(initial_state(layout, q[0], scene_box_states(scene)))
+        objective = PhysicsObjective(ArmGeometry(scene, variant), layout, cfg, x0,
+                                     scene.target, knot_time, config.baseline.d_safe,
+                                     force_exclude=held, static_geometry=static,
+                                     forces=dynamics, approach=approach,
+                                     grasp_offset=grasp_offset(config.baseline))
+        augmented = AugmentedPhi(dynamics, cfg.max_spectral_radius, cfg.parallel_line_search,
+                                 cfg.hold_knots)
+        if cfg.hold_knots > 0:
+            objective = HoldTail(objective, dynamics, cfg.hold_knots, cfg.max_spectral_radius,
+                                 cfg.hold_derivative_stride)
+        yield StageProblem(dynamics, augmented, objective, np.concatenate([x0, q[0]]), report,
+                           held)

@@ -1,0 +1,399 @@
+"""Iterative LQR (Li and Todorov 2004; Sec. V of the paper) in pure NumPy.
+
+The solver sees two small protocols and nothing of Drake:
+
+* ``dynamics.step(t, x, u) -> x_next`` and ``dynamics.linearize(xs, us) -> (A, B)`` with
+  ``A[t] = d x_{t+1} / d x_t`` (nx x nx) and ``B[t] = d x_{t+1} / d u_t`` (nx x nu), t = 0..T-1;
+* ``cost.terms(xs, us) -> dict[name, float]`` (the weighted value of every term over the whole
+  trajectory; their sum is the objective) and ``cost.quadratize(xs, us) -> Expansion``.
+
+``xs`` has T + 1 rows (x_0 .. x_T) and ``us`` T rows (u_0 .. u_{T-1}).
+
+Controls may be box-bounded (``u_min``/``u_max``): the forward pass clamps every control into
+the box, and the backward pass holds the controls that sit on a bound in the nominal
+trajectory with their gradient pushing outwards (no step, no feedback) and solves the free
+controls' block of Q_uu alone, so the linear policy does not fight the clamp - the simple form
+of the control-limited iLQR of Tassa et al. (2014).
+
+Manifold states: with ``difference(x_a, x_b) -> dx`` (x_a minus x_b in tangent coordinates,
+e.g. rotation vectors for quaternion states) the linearisation and the expansion live in the
+tangent space (A: ndx x ndx, B: ndx x nu, lx: ndx, ...), and the forward pass feeds back
+K (x (-) x_bar); without it the states are plain vectors and x - x_bar is used.
+
+Regularisation: Levenberg-Marquardt on Q_uu (``mu * I``), raised by ``reg_factor`` whenever
+Q_uu is not positive definite or the line search fails, lowered after every accepted step.
+Line search: step sizes 1, 1/2, 1/4, ... (with ``adaptive_step``: from twice the last
+accepted size); a step is accepted only if it lowers the objective, so the cost never increases
+across accepted iterations. For inexact derivatives (phi's finite differences in contact) two
+safeguards are optional: a trust region on the controls (``step_limit``: no control changes by
+more than its limit per forward pass, feedback included) and an open-loop retry of the line
+search (``open_loop_fallback``: K = 0, so errors in A are not fed back), and ``cost_floor``:
+a model that predicts a decrease below a known lower bound of the objective is rejected
+without a rollout (mu is raised). ``ILQRResult.log``
+records every backward pass: regulariser, predicted and actual decrease, step size. Stop rules:
+the iteration cap, a relative decrease below ``tolerance``, the regulariser exceeding
+``reg_max``, ``max_failed_searches`` failed line searches in one iteration, or an accepted
+step that moved no control by ``min_step`` or more (on a chaotic rollout, a decrease from a
+step that small is noise to exploit, not progress).
+
+Parallel line search: dynamics that can run several forward passes at once (elsewhere: worker
+processes) say how many with ``parallel_passes`` (an int, > 1) and run them in
+``forward_passes(xs, us, k, K, alphas, lo, hi, limit)``, a list of (xs, us) per step size with
+their own state difference; the line search then rolls out that many step sizes per batch and
+still accepts the first (largest) that lowers the objective, so the result is the serial one.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Protocol
+
+import numpy as np
+
+
+class Dynamics(Protocol):
+    """Discrete-time dynamics x_{t+1} = f_t(x_t, u_t)."""
+
+    def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray: ...
+
+    def linearize(self, xs: np.ndarray, us: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@dataclass
+class Expansion:
+    """Second-order expansion of the objective about (xs, us).
+
+    Running terms per knot t = 0..T-1: ``lx`` (T, nx), ``lu`` (T, nu), ``lxx`` (T, nx, nx),
+    ``luu`` (T, nu, nu), ``lux`` (T, nu, nx); terminal terms at x_T: ``vx`` (nx,), ``vxx``
+    (nx, nx). Costs that couple knots (velocities, accelerations) must be written over an
+    augmented state that carries the previous controls.
+    """
+
+    lx: np.ndarray
+    lu: np.ndarray
+    lxx: np.ndarray
+    luu: np.ndarray
+    lux: np.ndarray
+    vx: np.ndarray
+    vxx: np.ndarray
+
+
+class Cost(Protocol):
+    """The objective: named weighted terms, and their quadratic expansion."""
+
+    def terms(self, xs: np.ndarray, us: np.ndarray) -> dict[str, float]: ...
+
+    def quadratize(self, xs: np.ndarray, us: np.ndarray) -> Expansion: ...
+
+
+@dataclass(frozen=True)
+class ILQRSettings:
+    """Solver settings; the defaults follow Sec. V (30 iterations) where the paper sets one."""
+
+    max_iterations: int = 30  # Sec. V: iLQR capped at 30 iterations
+    tolerance: float = 1e-6  # relative objective decrease that counts as converged; ours
+    reg_init: float = 1e-6  # initial Levenberg-Marquardt term on Q_uu; ours
+    reg_min: float = 1e-9
+    reg_max: float = 1e10
+    reg_factor: float = 10.0
+    line_search_steps: int = 10  # step sizes 1, 1/2, ..., 2^-9
+    u_min: tuple[float, ...] | None = None
+    u_max: tuple[float, ...] | None = None
+    step_limit: tuple[float, ...] | None = None  # trust region: the largest change of each
+    # control per knot in one forward pass (|u - u_bar| <= step_limit, feedback included)
+    adaptive_step: bool = False  # start each line search at twice the last accepted step size
+    # (capped at 1) instead of 1: with inexact derivatives the full step keeps failing and
+    # every failed try is a rollout
+    cost_floor: float | None = None  # a known lower bound of the objective (0 for sums of
+    # non-negative terms): a backward pass predicting a decrease below it is not tried (no
+    # rollout), mu is raised instead - the model cannot be trusted that far
+    max_failed_searches: int | None = None  # stop ("line_search_failed") after this many
+    # failed line searches in one iteration instead of raising mu up to reg_max (each failed
+    # search is line_search_steps rollouts); None: no such limit
+    open_loop_fallback: bool = False  # when the closed-loop line search fails, try the same
+    # step sizes with K = 0 before raising the regulariser (for inexact A: K (x - x_bar)
+    # amplifies its errors)
+    feedback: bool = True  # the forward pass feeds back K (x - x_bar); False: open loop
+    # (K = 0) always, for dynamics whose state deviations are chaotic
+    min_step: float = 0.0  # stop ("small_step") after an accepted step that changed no
+    # control by more than this (its largest |u - u_bar|); 0: no such rule
+
+
+class StopReason(StrEnum):
+    """Why iLQR stopped (the value is what plan files and stores hold)."""
+
+    MAX_ITERATIONS = "max_iterations"  # the iteration cap
+    CONVERGED = "converged"  # relative improvement, or the predicted decrease, under tolerance
+    SMALL_STEP = "small_step"  # the accepted step moved the controls less than min_step
+    REGULARIZATION_LIMIT = "regularization_limit"  # mu passed reg_max without an accepted step
+    LINE_SEARCH_FAILED = "line_search_failed"  # max_failed_searches line searches failed
+
+
+@dataclass
+class ILQRResult:
+    """Everything the solver produced: trajectory, policy, history, why it stopped, timings."""
+
+    xs: np.ndarray
+    us: np.ndarray
+    K: np.ndarray  # (T, nu, nx) feedback gains
+    k: np.ndarray  # (T, nu) feed-forward terms of the last backward pass
+    cost: float
+    cost_history: list[float]  # objective after each accepted iteration (index 0: the start)
+    term_history: list[dict[str, float]]  # per-term values, aligned with cost_history
+    iterations: int
+    stop_reason: StopReason
+    timings: dict[str, float] = field(default_factory=dict)  # s, summed over iterations
+    log: list[dict] = field(default_factory=list)  # one entry per backward pass: regulariser
+    # mu, the model's predicted decrease at the full step, the accepted step size alpha (0:
+    # none), the actual decrease, whether the step was open loop, forward passes tried, and
+    # the non-finite derivative entries zeroed; "passes": forward passes run (more than
+    # "tries" when a parallel batch ran step sizes after the accepted one)
+
+    @property
+    def converged(self) -> bool:
+        """True when stopped by the tolerance rule."""
+        return self.stop_reason == StopReason.CONVERGED
+
+
+def rollout(dynamics: Dynamics, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
+    """States x_0..x_T of applying ``us`` from ``x0``."""
+    xs = np.empty((len(us) + 1, len(x0)))
+    xs[0] = x0
+    for t, u in enumerate(us):
+        xs[t + 1] = dynamics.step(t, xs[t], u)
+    return xs
+
+
+def _bounds(settings: ILQRSettings, nu: int) -> tuple[np.ndarray, np.ndarray]:
+    lo = np.full(nu, -np.inf) if settings.u_min is None else np.asarray(settings.u_min, float)
+    hi = np.full(nu, np.inf) if settings.u_max is None else np.asarray(settings.u_max, float)
+    if lo.shape != (nu,) or hi.shape != (nu,) or np.any(lo > hi):
+        raise ValueError("u_min/u_max must have one entry per control and u_min <= u_max")
+    return lo, hi
+
+
+def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
+                  lo: np.ndarray | None = None, hi: np.ndarray | None = None):
+    """Riccati-like recursion. Returns (k, K, expected decrease terms (d1, d2)) or None when
+    Q_uu + mu I is not positive definite at some knot."""
+    T, nu, nx = exp.lu.shape[0], exp.lu.shape[1], exp.lx.shape[1]
+    k, K = np.zeros((T, nu)), np.zeros((T, nu, nx))
+    vx, vxx = exp.vx.copy(), exp.vxx.copy()
+    d1 = d2 = 0.0
+    for t in range(T - 1, -1, -1):
+        At, Bt = A[t], B[t]
+        qx = exp.lx[t] + At.T @ vx
+        qu = exp.lu[t] + Bt.T @ vx
+        qxx = exp.lxx[t] + At.T @ vxx @ At
+        quu = exp.luu[t] + Bt.T @ vxx @ Bt
+        qux = exp.lux[t] + Bt.T @ vxx @ At
+        free = np.ones(nu, dtype=bool)
+        if us is not None:  # controls pinned on a bound with the gradient pushing outwards
+            free &= ~(((us[t] <= lo) & (qu > 0)) | ((us[t] >= hi) & (qu < 0)))
+        # Pinned controls stay put (k = 0, K = 0); the free ones solve their own block, so the
+        # step is the minimiser of the model over the free controls (the predicted decrease is
+        # then never negative; zeroing rows of the full solution could make it so).
+        kt, Kt = np.zeros(nu), np.zeros((nu, nx))
+        if free.any():
+            try:
+                chol = np.linalg.cholesky(quu[np.ix_(free, free)] + mu * np.eye(free.sum()))
+            except np.linalg.LinAlgError:
+                return None
+            kt[free] = -_chol_solve(chol, qu[free])
+            Kt[free] = -_chol_solve(chol, qux[free])
+        k[t], K[t] = kt, Kt
+        d1 += kt @ qu
+        d2 += 0.5 * kt @ quu @ kt
+        vx = qx + Kt.T @ quu @ kt + Kt.T @ qu + qux.T @ kt
+        vxx = _psd(qxx + Kt.T @ quu @ Kt + Kt.T @ qux + qux.T @ Kt)
+    return k, K, (d1, d2)
+
+
+def _psd(M: np.ndarray) -> np.ndarray:
+    """The nearest symmetric positive semi-definite matrix (negative eigenvalues set to 0).
+
+    With positive semi-definite cost Hessians V_xx is too in exact arithmetic without
+    regularisation; the LM term (K from Q_uu + mu I) and large, inexact A (phi's finite
+    differences, entries up to 1e3) make it indefinite, and Q_uu then stayed indefinite up to
+    mu = 1e10 on fig6 and fig7 (measured)."""
+    M = 0.5 * (M + M.T)
+    w, V = np.linalg.eigh(M)
+    if w.min() >= 0.0:
+        return M
+    return (V * np.maximum(w, 0.0)) @ V.T
+
+
+def _chol_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    y = np.linalg.solve(chol, rhs)
+    return np.linalg.solve(chol.T, y)
+
+
+def _subtract(x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
+    return x_a - x_b
+
+
+def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, difference=None,
+                 limit: np.ndarray | None = None):
+    """New (xs, us) from the policy u = clamp(u_bar + alpha k + K (x (-) x_bar)); ``difference``
+    is the state difference (default: plain subtraction); ``limit`` (nu,) bounds each control's
+    change |u - u_bar| (None: unbounded)."""
+    difference = difference or _subtract
+    new_xs = np.empty_like(xs)
+    new_us = np.empty_like(us)
+    new_xs[0] = xs[0]
+    for t in range(len(us)):
+        if not np.all(np.isfinite(new_xs[t])):  # the dynamics failed: the step is rejected
+            new_xs[t:] = np.nan
+            new_us[t:] = us[t:]
+            break
+        du = alpha * k[t] + K[t] @ difference(new_xs[t], xs[t])
+        if limit is not None:
+            du = np.clip(du, -limit, limit)
+        new_us[t] = np.clip(us[t] + du, lo, hi)
+        if not np.all(np.isfinite(new_us[t])):  # an overflowing policy: the step is rejected
+            new_xs[t + 1:] = np.nan
+            new_us[t:] = us[t:]
+            break
+        new_xs[t + 1] = dynamics.step(t, new_xs[t], new_us[t])
+    return new_xs, new_us
+
+
+def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
+          settings: ILQRSettings | None = None, difference=None) -> ILQRResult:
+    """Runs iLQR from the control sequence ``us_init`` (clamped into the bounds);
+    ``difference`` as in the module docstring (None: plain vector states)."""
+    settings = settings or ILQRSettings()
+    us = np.array(us_init, dtype=float)
+    lo, hi = _bounds(settings, us.shape[1])
+    limit = None if settings.step_limit is None else np.asarray(settings.step_limit, float)
+    us = np.clip(us, lo, hi)
+    if not np.all(np.isfinite(us)):
+        raise ValueError("the initial controls are not all finite")
+    timings = {"rollout": 0.0, "linearize": 0.0, "quadratize": 0.0, "backward": 0.0,
+               "forward": 0.0}
+    tic = time.perf_counter()
+    xs = rollout(dynamics, np.asarray(x0, dtype=float), us)
+    timings["rollout"] += time.perf_counter() - tic
+    terms = cost.terms(xs, us)
+    total = float(sum(terms.values()))
+    history, term_history, log = [total], [terms], []
+    mu = settings.reg_init
+    ndx = xs.shape[1] if difference is None else len(difference(xs[0], xs[0]))
+    K = np.zeros((len(us), us.shape[1], ndx))
+    k = np.zeros_like(us)
+    stop_reason = StopReason.MAX_ITERATIONS
+    iteration, alpha0 = 0, 1.0
+    while iteration < settings.max_iterations:
+        iteration += 1
+        tic = time.perf_counter()
+        A, B = dynamics.linearize(xs, us)
+        timings["linearize"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        exp = cost.quadratize(xs, us)
+        timings["quadratize"] += time.perf_counter() - tic
+        nonfinite = zero_nonfinite(A, B, *vars(exp).values())
+        accepted, failed = False, 0
+        while mu <= settings.reg_max and (settings.max_failed_searches is None
+                                          or failed < settings.max_failed_searches):
+            tic = time.perf_counter()
+            bp = backward_pass(A, B, exp, mu, us, lo, hi)
+            timings["backward"] += time.perf_counter() - tic
+            if bp is None:
+                mu = max(mu * settings.reg_factor, settings.reg_min)
+                continue
+            k, K, (d1, d2) = bp
+            entry = {"mu": mu, "expected": -(d1 + d2), "alpha": 0.0, "actual": 0.0,
+                     "open_loop": False, "tries": 0, "passes": 0, "nonfinite": nonfinite}
+            log.append(entry)
+            if -(d1 + d2) < settings.tolerance * max(abs(total), 1e-12):
+                break  # the model predicts no worthwhile decrease: a stationary point
+            if settings.cost_floor is not None and -(d1 + d2) > total - settings.cost_floor:
+                mu = max(mu * settings.reg_factor, settings.reg_min)
+                continue  # predicted below the floor: raise mu without a rollout
+            tic = time.perf_counter()
+            step = _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings,
+                                difference, limit, entry, alpha0)
+            timings["forward"] += time.perf_counter() - tic
+            if step is not None:
+                accepted = True
+                break
+            failed += 1
+            mu = max(mu * settings.reg_factor, settings.reg_min)
+        if not accepted:
+            stop_reason = (StopReason.REGULARIZATION_LIMIT if mu > settings.reg_max else
+                           StopReason.LINE_SEARCH_FAILED
+                           if failed and failed == settings.max_failed_searches
+                           else StopReason.CONVERGED)
+            iteration -= 1
+            break
+        xs, us, terms, new_total = step
+        if settings.adaptive_step:
+            alpha0 = min(1.0, 2.0 * entry["alpha"])
+        mu = max(mu / settings.reg_factor, settings.reg_min)
+        improvement = (total - new_total) / max(abs(total), 1e-12)
+        total = new_total
+        history.append(total)
+        term_history.append(terms)
+        if improvement < settings.tolerance:
+            stop_reason = StopReason.CONVERGED
+            break
+        if entry["step"] < settings.min_step:
+            stop_reason = StopReason.SMALL_STEP
+            break
+    return ILQRResult(xs=xs, us=us, K=K, k=k, cost=total, cost_history=history,
+                      term_history=term_history, iterations=iteration, stop_reason=stop_reason,
+                      timings=timings, log=log)
+
+
+def zero_nonfinite(*arrays: np.ndarray) -> int:
+    """Sets the non-finite entries of the derivative arrays to 0 in place (a failed
+    finite-difference evaluation: no known effect), returning how many there were; without
+    this a single NaN makes every Cholesky factorisation fail up to ``reg_max``."""
+    count = 0
+    for a in arrays:
+        bad = ~np.isfinite(a)
+        if bad.any():
+            count += int(bad.sum())
+            a[bad] = 0.0
+    return count
+
+
+def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, difference=None,
+                 limit=None, entry=None, alpha0: float = 1.0):
+    """First step size alpha0, alpha0/2, ... that lowers the objective, closed loop, then (with
+    ``open_loop_fallback``) open loop: (xs, us, terms, total) or None. ``entry`` (a log
+    dict) receives the accepted alpha, the actual decrease and the forward passes tried."""
+    entry = entry if entry is not None else {}
+    gains = [K, np.zeros_like(K)] if settings.open_loop_fallback else [K]
+    if not settings.feedback:
+        gains = [np.zeros_like(K)]
+    batch = max(1, int(getattr(dynamics, "parallel_passes", 1)))
+    for gain in gains:
+        alphas = [alpha0 * 0.5 ** i for i in range(settings.line_search_steps)]
+        for start in range(0, len(alphas), batch):
+            chunk = alphas[start:start + batch]
+            passes = _forward_passes(dynamics, xs, us, k, gain, chunk, lo, hi, difference,
+                                     limit)
+            entry["passes"] = entry.get("passes", 0) + len(chunk)
+            for alpha, (new_xs, new_us) in zip(chunk, passes, strict=True):
+                entry["tries"] = entry.get("tries", 0) + 1
+                if not np.all(np.isfinite(new_xs)):
+                    continue
+                terms = cost.terms(new_xs, new_us)
+                new_total = float(sum(terms.values()))
+                if new_total < total:
+                    entry.update(alpha=alpha, actual=total - new_total,
+                                 open_loop=gain is not K,
+                                 step=float(np.max(np.abs(new_us - us), initial=0.0)))
+                    return new_xs, new_us, terms, new_total
+    return None
+
+
+def _forward_passes(dynamics, xs, us, k, K, alphas, lo, hi, difference, limit) -> list:
+    """(xs, us) of the forward passes at ``alphas``: at once through the dynamics'
+    ``forward_passes`` when it has more than one to run, else one after another."""
+    if len(alphas) > 1 and hasattr(dynamics, "forward_passes"):
+        return dynamics.forward_passes(xs, us, k, K, alphas, lo, hi, limit)
+    return [forward_pass(dynamics, xs, us, k, K, a, lo, hi, difference, limit) for a in alphas]

@@ -1,0 +1,119 @@
+"""The package's rooms and the one direction of imports between them (read with ``ast``).
+
+Each subpackage of ``drake_clutter`` may import only the rooms listed for it in ALLOWED (its
+own modules always); ``solvers`` imports no pydrake; nothing in the package, the apps or the
+benchmarks imports ``drake_clutter.cli`` or ``apps``; no test or benchmark reaches a helper
+through ``sys.path``; every subpackage says in its docstring what it owns and may import.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGE = REPO / "drake_clutter"
+
+BASE = {"common", "robot", "scene", "trajectory"}
+ALLOWED = {
+    "__init__": set(),
+    "common": set(),
+    "robot": {"common"},
+    "scene": {"common", "robot"},
+    "trajectory": {"common", "robot"},
+    "worlds": BASE,
+    "solvers": {"common"},
+    "phi": BASE | {"worlds"},
+    "planners": BASE | {"worlds", "solvers", "phi"},
+    "evaluation": BASE | {"worlds"},
+    "experiments": BASE | {"worlds", "solvers", "phi", "planners", "evaluation"},
+    "viz": BASE | {"worlds", "evaluation"},
+    "testing": BASE | {"worlds", "solvers", "phi", "planners", "evaluation"},
+    "cli": BASE | {"worlds", "solvers", "phi", "planners", "evaluation", "experiments", "viz"},
+}
+
+
+def _room(path: Path) -> str:
+    """The room of a file of the package: its subpackage, or the top-level module's name."""
+    parts = path.relative_to(PACKAGE).parts
+    return parts[0] if len(parts) > 1 else Path(parts[0]).stem
+
+
+def _imports(source: str, name: str = "<source>") -> list[tuple[int, str]]:
+    """(line, dotted module) of every import in a file's source."""
+    found = []
+    for node in ast.walk(ast.parse(source, name)):
+        if isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            assert node.level == 0, f"{name}:{node.lineno}: relative import"
+            found += [(node.lineno, f"{node.module}.{alias.name}") for alias in node.names]
+    return found
+
+
+def _violations(source: str, room: str) -> list[str]:
+    """The imports of a package file in ``room`` that point against the direction."""
+    allowed = ALLOWED[room] | {room}
+    bad = []
+    for line, module in _imports(source):
+        target = _target_room(module)
+        if target is not None and target not in allowed:
+            bad.append(f"line {line}: {room} imports {module}")
+        if room == "solvers" and module.split(".")[0] == "pydrake":
+            bad.append(f"line {line}: solvers import {module}")
+    return bad
+
+
+def _package_files() -> list[Path]:
+    return sorted(p for p in PACKAGE.rglob("*.py"))
+
+
+def _target_room(module: str) -> str | None:
+    """The room a ``drake_clutter.…`` import lands in (None for other packages)."""
+    parts = module.split(".")
+    if parts[0] != "drake_clutter" or len(parts) < 2:
+        return None
+    return parts[1]
+
+
+def test_every_room_is_known_and_documented():
+    rooms = {_room(p) for p in _package_files()}
+    assert rooms == set(ALLOWED), "a new room needs its line in ALLOWED"
+    for sub in sorted(p for p in PACKAGE.iterdir() if p.is_dir() and p.name in ALLOWED):
+        doc = ast.get_docstring(ast.parse((sub / "__init__.py").read_text(encoding="utf-8")))
+        assert doc and "May import" in doc, f"{sub.name}/__init__.py: say what it owns and imports"
+
+
+@pytest.mark.parametrize("path", _package_files(), ids=lambda p: str(p.relative_to(REPO)))
+def test_imports_point_one_way(path):
+    assert _violations(path.read_text(encoding="utf-8"), _room(path)) == []
+
+
+def _outside_files() -> list[Path]:
+    return sorted([*(REPO / "apps").glob("*.py"), *(REPO / "benchmarks").glob("*.py"),
+                   *(REPO / "tests").glob("*.py")])
+
+
+@pytest.mark.parametrize("path", [*_package_files(), *_outside_files()],
+                         ids=lambda p: str(p.relative_to(REPO)))
+def test_nothing_imports_the_command_line_or_the_apps_or_edits_sys_path(path):
+    is_test = path.parent.name == "tests"
+    text = path.read_text(encoding="utf-8")
+    assert "sys.path" not in text or path.name == "test_layout.py", \
+        f"{path.relative_to(REPO)}: a shared helper belongs in drake_clutter.testing"
+    for line, module in _imports(text, str(path)):
+        assert not module.startswith("apps"), f"{path.relative_to(REPO)}:{line}: imports {module}"
+        if module.startswith("drake_clutter.cli") and path.name != "cli.py":
+            assert is_test, f"{path.relative_to(REPO)}:{line}: only tests may import the CLI"
+        assert not module.startswith("test_"), f"{path.relative_to(REPO)}:{line}: imports a test"
+
+
+def test_the_rule_catches_imports_against_the_direction():
+    assert _violations("from drake_clutter.planners import baseline\n", "solvers")
+    assert _violations("import pydrake.all\n", "solvers")
+    assert _violations("from drake_clutter.planners.baseline import plan_baseline\n",
+                       "evaluation")
+    assert _violations("from drake_clutter.cli import main\n", "experiments")
+    assert not _violations("from drake_clutter.evaluation.judge import evaluate\n", "viz")

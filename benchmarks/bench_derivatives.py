@@ -1,7 +1,8 @@
 """Benchmark of phi and its Jacobians: pruning, colouring, workers against brute force.
 
 For bookshelf scenes with 1, 5, 10, 15, 20, 25 boxes (seed 0: the same target at every level)
-and a baseline-like straight reach (tests/reach_paths.py; 30 knots, 0.2 s apart) it prints:
+and a baseline-like straight reach (drake_clutter/testing/reach_paths.py; 30 knots, 0.2 s
+apart) it prints:
 kept boxes, phi's time per knot (``substeps`` SAP steps, contact forces included), phi
 evaluations per finite-differenced knot against brute force's ndx + nu + 1 on the whole scene,
 the knots differentiated by AutoDiffXd instead (``dynamics.derivative_method``), the whole horizon

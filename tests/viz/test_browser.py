@@ -29,7 +29,7 @@ from drake_clutter.scene.scenes import DEFAULT_SCENE, load_shipped_scene
 from drake_clutter.viz.replay import PlanView, look_at_copies, record_replay
 from drake_clutter.viz.views import write_static_html
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 WINDOW = (800, 600)  # px; software WebGL: rendering cost grows with the area
 BUDGET_MS = 2000  # virtual time for loading and drawing the page (measured: enough)
 MIN_SHARE = 0.002  # of the window's pixels per part (about 1000 pixels): a part in view

@@ -32,7 +32,7 @@ from drake_clutter.scene.scenes import BoxObject, load_shipped_scene, shipped_sc
 from drake_clutter.trajectory import TRAJECTORY_JOINTS, load_plan
 from drake_clutter.worlds.drake_world import build_planning_world
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 CONFIG = BaselineConfig()
 
 

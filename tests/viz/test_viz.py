@@ -19,7 +19,7 @@ from drake_clutter.trajectory import Candidate
 from drake_clutter.viz.cost_curves import plot_cost_curves, stage_curves
 from drake_clutter.viz.views import static_html_paths
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _stage(totals_terms, stop="converged"):

@@ -16,7 +16,7 @@ from drake_clutter.cli import main
 from drake_clutter.experiments.specs import failure_result
 from drake_clutter.experiments.store import Store, StoreError
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 
 def _unit(scene="s", angle=0, planner="baseline", config_hash="h"):

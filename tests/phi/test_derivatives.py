@@ -325,9 +325,9 @@ def test_hunt_crossley_rollouts_are_linearised_with_sap(hydro10):
     Jacobians are SAP's at the states those rollouts reach - AutoDiffXd, in process and in the
     workers, equal to a SAP copy's dense AutoDiffXd; forward differences about the SAP copy's
     own step (not the Hunt-Crossley one). Hunt-Crossley's own forward differences are noise
-    (README: planning with Hunt-Crossley phi), the SAP copy's are not. Measured here: AutoDiffXd
-    against the reference <= 2.5e-8; median whole-Jacobian distance from it 3.1e-4 for the SAP
-    copy's forward differences, 207 for Hunt-Crossley's own."""
+    (docs/phi.md: Hunt-Crossley contact and its derivatives), the SAP copy's are not. Measured
+    here: AutoDiffXd against the reference <= 2.5e-8; median whole-Jacobian distance from it
+    3.1e-4 for the SAP copy's forward differences, 207 for Hunt-Crossley's own."""
     from drake_clutter.common.config import WorldConfig
     from drake_clutter.phi.derivatives import derivative_spec
 

@@ -263,6 +263,19 @@ def _build_scene(source, config: Config):
     return load_shipped_scene(source[1])
 
 
+def stored_scene(name: str, config: Config):
+    """The scene of a stored row's ``scene`` name: a generated scene rebuilt from its name
+    (kind, boxes, seed) with ``config.generator``, else a shipped scene (SceneError if
+    neither)."""
+    from drake_clutter.scene.generators import SceneSpec, generate_scene
+    from drake_clutter.scene.scenes import load_shipped_scene
+
+    spec = SceneSpec.from_name(name)
+    if spec is not None:
+        return generate_scene(spec.kind, spec.num_objects, spec.seed, config.generator)
+    return load_shipped_scene(name)
+
+
 def plan_one_angle(scene, config: Config, planner: str, index: int):
     """The Candidate of approach angle ``index`` (of `approach.approach_angles`) planned alone
     (see the module docstring): Sec. IV's baseline, or Sec. V's physics planner run on that

@@ -16,6 +16,7 @@ byte-identical file.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -56,6 +57,17 @@ class SceneSpec:
     def name(self) -> str:
         """Stable scene name, e.g. ``bookshelf_n25_s2015``."""
         return f"{self.kind}_n{self.num_objects:02d}_s{self.seed}"
+
+    @staticmethod
+    def from_name(name: str) -> SceneSpec | None:
+        """The spec a generated scene's `name` stands for; None for any other name."""
+        match = _SCENE_NAME.fullmatch(name)
+        if match is None:
+            return None
+        return SceneSpec(match["kind"], int(match["n"]), int(match["seed"]))
+
+
+_SCENE_NAME = re.compile(r"(?P<kind>bookshelf|fridge)_n(?P<n>\d+)_s(?P<seed>\d+)")
 
 
 def make_robot_placement(config: GeneratorConfig) -> RobotPlacement:

@@ -187,6 +187,28 @@ def test_an_arm_that_cannot_follow_is_kinematic_failure(clean_reach):
     assert outcome.tracking_error > CONFIG.max_tracking_error
 
 
+def test_an_arm_at_its_speed_limits_in_free_space_follows_the_plan():
+    """Every arm joint swings at up to 0.9 of the PR2's speed limit (1 s sine, two periods,
+    knots every 50 ms) with the robot 1 m further back than ROBOT, out of reach of the shelf
+    and every box: no kinematic failure, and the largest lag far under the limit."""
+    far = replace(ROBOT, base_pose=(-1.0, *ROBOT.base_pose[1:]))
+    scene = validate_scene(Scene("free_space", BOOKSHELF, far, "target",
+                                 (make_target((0.7, 0.3)),)))
+    centre = np.array([-0.8, 0.4, -1.5, -1.2, 0.0, -1.0, 0.0])  # rad, inside every limit
+    speed = 0.9 * np.array([pr2.velocity_limits()[j] for j in pr2.ARM_JOINTS])  # rad/s
+    period, times = 1.0, np.arange(0.0, 2.0 + 1e-9, 0.05)
+    phase = np.sin(2 * np.pi * times / period)[:, None]
+    q = np.hstack([centre + speed * period / (2 * np.pi) * phase,
+                   np.full((len(times), 1), pr2.GRIPPER_MAX_OPENING)])
+    trajectory = Trajectory(times, q)
+    assert plan_limit_violation(trajectory, CONFIG) == ""
+    peak = np.max(np.abs(np.diff(q[:, :7], axis=0)) / np.diff(times)[:, None] / speed * 0.9)
+    assert peak > 0.85  # the knots do reach the speed limits
+    outcome = evaluate(scene, trajectory, CONFIG)
+    assert outcome.kind == "failure_to_grasp", outcome.reason
+    assert outcome.tracking_error < 0.1 * CONFIG.max_tracking_error, outcome.tracking_error
+
+
 def test_plan_beyond_the_velocity_limits_fails_without_simulating(clean_reach):
     scene, trajectory = clean_reach
     fast = Trajectory(trajectory.times / 50.0, trajectory.q)

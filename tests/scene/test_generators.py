@@ -7,6 +7,7 @@ import pytest
 
 from drake_clutter.common.config import GeneratorConfig
 from drake_clutter.scene.generators import (
+    SceneSpec,
     board_coverage,
     free_spots,
     generate_scene,
@@ -95,3 +96,10 @@ def test_bad_arguments():
         generate_scene("cupboard", 3, 1)
     with pytest.raises(ValueError, match="unknown scene set"):
         scene_set("everything")
+
+
+def test_a_generated_scene_name_gives_back_its_spec():
+    for spec in scene_set("paper")[::17]:
+        assert SceneSpec.from_name(spec.name) == spec
+    assert SceneSpec.from_name("fig5_large_small") is None
+    assert SceneSpec.from_name("bookshelf_n10_s7x") is None

@@ -32,7 +32,7 @@ import numpy as np
 
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
-from drake_clutter.evaluation.judge import OUTCOME_KINDS
+from drake_clutter.evaluation.outcome import OUTCOME_KINDS
 from drake_clutter.planners.registry import planner_names, run_planners
 from drake_clutter.robot.pr2 import VARIANTS
 from drake_clutter.scene.scenes import DEFAULT_SCENE, resolve_scene

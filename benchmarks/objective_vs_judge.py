@@ -35,7 +35,8 @@ import numpy as np
 
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import InputError
-from drake_clutter.evaluation.judge import evaluate, outcome_grade
+from drake_clutter.evaluation.judge import evaluate
+from drake_clutter.evaluation.outcome import outcome_grade
 from drake_clutter.experiments.report import row_grade, verdict
 from drake_clutter.experiments.store import Store
 from drake_clutter.planners.physics.pipeline import path_terms

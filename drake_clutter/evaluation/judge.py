@@ -52,15 +52,22 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field, replace
-from enum import StrEnum
+from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 
 from drake_clutter.common.config import EvaluationConfig
-from drake_clutter.evaluation.lift_check import LiftResult, lift_check
-from drake_clutter.evaluation.recording import Recorder, Recording
+from drake_clutter.evaluation.lift_check import lift_check
+from drake_clutter.evaluation.outcome import (
+    BoxOutcome,
+    GraspCheck,
+    Outcome,
+    OutcomeKind,
+    classify,
+    scene_score,
+)
+from drake_clutter.evaluation.recording import Recorder
 from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import (
@@ -72,179 +79,8 @@ from drake_clutter.trajectory import (
 )
 from drake_clutter.worlds import bullet_world as bw
 
-
-class OutcomeKind(StrEnum):
-    """Sec. III's outcome classes of a replayed plan, best first (the value is what outcome
-    files and stores hold); ``planner_failure``: the planner gave no trajectory."""
-
-    SUCCESS = "success"
-    PARTIAL_SUCCESS = "partial_success"
-    FAILURE_TO_GRASP = "failure_to_grasp"
-    OBJECTS_FALLING = "objects_falling"
-    KINEMATIC_FAILURE = "kinematic_failure"
-    PLANNER_FAILURE = "planner_failure"
-
-
-OUTCOME_KINDS: tuple[str, ...] = tuple(k.value for k in OutcomeKind)
-SCENE_SCORES: tuple[str, ...] = ("success", "partial_success", "failure")
 _ARM = slice(1, 8)  # arm joints within MOTOR_ORDER
 _FINGERS = slice(8, 10)
-
-
-@dataclass(frozen=True)
-class BoxOutcome:
-    """One box after the replay: centre displacement (m, W), tilt of its z axis (rad), flags."""
-
-    name: str
-    displacement: float
-    tilt: float
-    fallen: bool
-    tipped: bool
-    final_position: tuple[float, float, float]  # m, centre in W
-
-    def to_data(self) -> dict:
-        """JSON-ready dict."""
-        return {"name": self.name, "displacement": self.displacement, "tilt": self.tilt,
-                "fallen": self.fallen, "tipped": self.tipped,
-                "final_position": list(self.final_position)}
-
-
-@dataclass(frozen=True)
-class GraspCheck:
-    """The pre-grasp test at the end: target pose in the tool frame G and intruding boxes."""
-
-    grasped: bool
-    reason: str
-    p_GT: tuple[float, float, float]  # m, target centre in G
-    opening: float  # m, gap between the pads
-    intruders: tuple[str, ...]  # other boxes reaching into the zone
-
-    def to_data(self) -> dict:
-        """JSON-ready dict."""
-        return {"grasped": self.grasped, "reason": self.reason, "p_GT": list(self.p_GT),
-                "opening": self.opening, "intruders": list(self.intruders)}
-
-
-@dataclass(frozen=True)
-class Outcome:
-    """The evaluation record of one trajectory (JSON-serialisable with `to_data`).
-
-    ``forces`` holds the largest contact normal forces seen (N): ``arm_box`` and ``arm_static``
-    (sums over a sample's contact points), ``box_static`` (one box's sum from the shelf) and the
-    windowed means the thresholds use (``arm_static_mean``, ``box_static_excess_mean``, i.e.
-    beyond the box's weight); ``arm_static_penetration`` is in m. ``tracking_error`` is the
-    largest arm-joint lag (rad), ``finger_error`` the largest finger lag (m). ``recording``
-    holds the replay's frames when `evaluate` was asked for them (``record_fps``); it is left
-    out of ``to_data`` and of comparisons.
-    """
-
-    kind: OutcomeKind
-    reason: str
-    boxes: tuple[BoxOutcome, ...] = ()
-    grasp: GraspCheck | None = None
-    forces: dict[str, float] = field(default_factory=dict)
-    tracking_error: float = 0.0
-    finger_error: float = 0.0
-    simulated_time: float = 0.0  # s, replay plus settling
-    trajectory_time: float = 0.0  # s, the plan's duration
-    settled: bool = False  # the boxes came to rest before the cap
-    lift: LiftResult | None = None
-    wall_time: float = 0.0  # s of computer time (not part of the physics)
-    recording: Recording | None = field(default=None, compare=False, repr=False)
-
-    def __post_init__(self):
-        object.__setattr__(self, "kind", OutcomeKind(self.kind))
-
-    @property
-    def grasped(self) -> bool:
-        """True when the target ended in the pre-grasp zone with no other box in it."""
-        return self.grasp is not None and self.grasp.grasped
-
-    def to_data(self) -> dict:
-        """JSON-ready dict."""
-        return {"kind": self.kind.value, "reason": self.reason,
-                "grasp": None if self.grasp is None else self.grasp.to_data(),
-                "boxes": [b.to_data() for b in self.boxes], "forces": dict(self.forces),
-                "tracking_error": self.tracking_error, "finger_error": self.finger_error,
-                "simulated_time": self.simulated_time, "trajectory_time": self.trajectory_time,
-                "settled": self.settled,
-                "lift": None if self.lift is None else self.lift.to_data(),
-                "wall_time": self.wall_time}
-
-    @staticmethod
-    def from_data(data: dict) -> Outcome:
-        """Inverse of `to_data` (KeyError/TypeError/ValueError on malformed data)."""
-        if data["kind"] not in OUTCOME_KINDS:
-            raise ValueError(f"unknown outcome kind {data['kind']!r}")
-        grasp, lift = data.get("grasp"), data.get("lift")
-        return Outcome(
-            kind=data["kind"], reason=str(data["reason"]),
-            boxes=tuple(BoxOutcome(**{**b, "final_position": tuple(b["final_position"])})
-                        for b in data.get("boxes", [])),
-            grasp=None if grasp is None else GraspCheck(**{
-                **grasp, "p_GT": tuple(grasp["p_GT"]), "intruders": tuple(grasp["intruders"])}),
-            forces={k: float(v) for k, v in data.get("forces", {}).items()},
-            tracking_error=float(data.get("tracking_error", 0.0)),
-            finger_error=float(data.get("finger_error", 0.0)),
-            simulated_time=float(data.get("simulated_time", 0.0)),
-            trajectory_time=float(data.get("trajectory_time", 0.0)),
-            settled=bool(data.get("settled", False)),
-            lift=None if lift is None else LiftResult(
-                **{**lift, "others_lifted": tuple(lift["others_lifted"])}),
-            wall_time=float(data.get("wall_time", 0.0)))
-
-
-# ----------------------------------------------------------------------------- classification
-
-
-def classify(kinematic_failure: str, fallen: Sequence[str], grasp_reason: str,
-             tipped: Sequence[str]) -> tuple[OutcomeKind, str]:
-    """(kind, reason) from the findings, with the documented precedence.
-
-    ``kinematic_failure``: its reason or ""; ``fallen``/``tipped``: box names; ``grasp_reason``:
-    "" when the target is grasped, else why not.
-    """
-    if kinematic_failure:
-        return OutcomeKind.KINEMATIC_FAILURE, kinematic_failure
-    if fallen:
-        return OutcomeKind.OBJECTS_FALLING, "fell off the shelf: " + ", ".join(fallen)
-    if grasp_reason:
-        return OutcomeKind.FAILURE_TO_GRASP, grasp_reason
-    if tipped:
-        return OutcomeKind.PARTIAL_SUCCESS, "grasped; tipped over: " + ", ".join(tipped)
-    return OutcomeKind.SUCCESS, "grasped; every obstacle upright on the shelf"
-
-
-# Sec. VI-A's comparison of two plans from the same angle: the class, then the boxes disturbed.
-GRADE_CLASSES = {"success": 0, "partial_success": 1, "failure_to_grasp": 2, "objects_falling": 2,
-                 "kinematic_failure": 3, "planner_failure": 4}
-
-
-def behaviour_grade(kind: str, disturbed: int) -> tuple[int, int]:
-    """(class, disturbed boxes) of one plan's outcome; lower is better. Class 0 success, 1
-    partial success, 2 failure to grasp or objects falling, 3 kinematic failure, 4 no plan;
-    disturbed = boxes tipped or fallen. A kinematic failure stops the replay where it is found,
-    so its count of disturbed boxes is not comparable with a whole replay's: it ranks below."""
-    if kind not in GRADE_CLASSES:
-        raise ValueError(f"unknown outcome kind {kind!r}")
-    return GRADE_CLASSES[kind], int(disturbed)
-
-
-def outcome_grade(outcome: Outcome) -> tuple[int, int]:
-    """`behaviour_grade` of an evaluated outcome."""
-    return behaviour_grade(outcome.kind, sum(b.tipped or b.fallen for b in outcome.boxes))
-
-
-def scene_score(kinds: Iterable[str]) -> str:
-    """Sec. VI-B: 'success' if any candidate succeeded, 'partial_success' if the best one is a
-    partial success, else 'failure' (also for no candidates)."""
-    kinds = set(kinds)
-    unknown = kinds - set(OUTCOME_KINDS)
-    if unknown:
-        raise ValueError(f"unknown outcome kinds {sorted(unknown)}")
-    if "success" in kinds:
-        return "success"
-    return "partial_success" if "partial_success" in kinds else "failure"
 
 
 def tilt_angle(R_WB: np.ndarray) -> np.ndarray:

@@ -35,7 +35,7 @@ from pathlib import Path
 
 from scipy.stats import binomtest
 
-from drake_clutter.evaluation.judge import OUTCOME_KINDS, behaviour_grade, scene_score
+from drake_clutter.evaluation.outcome import OUTCOME_KINDS, behaviour_grade, scene_score
 
 ENVIRONMENTS = ("bookshelf", "fridge")
 ENV_LABELS = {"bookshelf": "Bookshelf", "fridge": "Refrigerator", "aggregate": "Aggregate"}

@@ -293,7 +293,8 @@ def run_unit(unit: dict) -> dict:
     (the exception text when planning or evaluating raised, then kind planner_failure).
     Outcome and plan are deterministic in the unit; timings are not.
     """
-    from drake_clutter.evaluation.judge import Outcome, evaluate_candidates
+    from drake_clutter.evaluation.judge import evaluate_candidates
+    from drake_clutter.evaluation.outcome import Outcome
 
     result = {"alpha": None, "plan": None, "timings": {}, "error": ""}
     try:
@@ -341,7 +342,7 @@ def _strip(result: dict) -> dict:
 
 def failure_result(reason: str, error: str) -> dict:
     """The result of a unit that produced nothing (its worker died, its task was lost)."""
-    from drake_clutter.evaluation.judge import Outcome
+    from drake_clutter.evaluation.outcome import Outcome
 
     return _strip({"alpha": None, "plan": None, "timings": {}, "error": error,
                    "outcome": Outcome(DEAD_WORKER, reason).to_data()})

@@ -47,7 +47,8 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_clutter.common.config import Config
-from drake_clutter.evaluation.judge import Outcome, off_the_board, tilt_angle
+from drake_clutter.evaluation.judge import off_the_board, tilt_angle
+from drake_clutter.evaluation.outcome import Outcome
 from drake_clutter.evaluation.recording import Recording
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, robot_positions

@@ -19,18 +19,15 @@ import pytest
 
 from drake_clutter.cli import main
 from drake_clutter.evaluation.judge import (
-    OUTCOME_KINDS,
-    Outcome,
-    classify,
     evaluate,
     evaluate_candidates,
     off_the_board,
     plan_limit_violation,
-    scene_score,
     target_zone_reason,
     tilt_angle,
     zone_extent,
 )
+from drake_clutter.evaluation.outcome import OUTCOME_KINDS, Outcome, classify, scene_score
 from drake_clutter.robot import pr2
 from drake_clutter.scene.generators import generate_scene
 from drake_clutter.scene.scenes import (

@@ -11,7 +11,7 @@ import pytest
 
 from drake_clutter.common.config import Config
 from drake_clutter.common.typed_yaml import InputError
-from drake_clutter.evaluation.judge import OUTCOME_KINDS, Outcome, OutcomeKind
+from drake_clutter.evaluation.outcome import OUTCOME_KINDS, Outcome, OutcomeKind
 from drake_clutter.planners import baseline
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.registry import (

@@ -703,7 +703,8 @@ def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():
     judge's order, its box and grasp terms at a coin), so the same code gave 3 better + 1 same
     on one machine and 1 better, 2 same, 1 worse on another."""
     from drake_clutter.common.config import Config
-    from drake_clutter.evaluation.judge import evaluate_candidates, outcome_grade
+    from drake_clutter.evaluation.judge import evaluate_candidates
+    from drake_clutter.evaluation.outcome import outcome_grade
     from drake_clutter.planners.baseline import plan_baseline
     from drake_clutter.planners.physics.pipeline import plan_physics
 

@@ -6,7 +6,7 @@ Subcommands:
   scene show FILE|NAME [--html FILE] [--variant V]
   scene list
   plan SCENE --planner baseline|physics|both [--angles K] --out PLAN.json
-  evaluate SCENE PLAN.json [--lift] --out OUTCOMES.json
+  evaluate SCENE PLAN.json [--lift] [--robust K] [--seed S] --out OUTCOMES.json
   experiment run SPEC|TIER --db RUN.db [--workers N] [--executor local|ray]
   report RUN.db --out DIR
   config show [--config FILE] [--set key=value ...]
@@ -92,6 +92,7 @@ def _cmd_scene_show(args) -> int:
 
 
 def _cmd_evaluate(args) -> int:
+    import dataclasses
     import json
     from pathlib import Path
 
@@ -101,14 +102,28 @@ def _cmd_evaluate(args) -> int:
         outcome_table,
         outcomes_document,
     )
+    from drake_clutter.evaluation.robust import check_robust
     from drake_clutter.scene.scenes import resolve_scene
     from drake_clutter.trajectory import load_plan
 
     config = _load_config(args)
+    evaluation = config.evaluation
+    if args.robust is not None:
+        if args.robust < 1:
+            raise InputError("<command line>", "--robust", f"must be at least 1, got "
+                                                           f"{args.robust}")
+        evaluation = dataclasses.replace(evaluation, robust_replays=args.robust)
+    if args.seed is not None:
+        if args.seed < 0:
+            raise InputError("<command line>", "--seed", f"must be non-negative, got {args.seed}")
+        evaluation = dataclasses.replace(evaluation, robust_seed=args.seed)
+    check_robust(evaluation, args.config or "<command line>")
     scene = resolve_scene(args.scene)
     plan_scene, candidates, _ = load_plan(args.plan)
     check_plan(scene, plan_scene, candidates, args.plan)
-    outcomes = evaluate_candidates(scene, candidates, config.evaluation, lift=args.lift)
+    if not Path(args.out).resolve().parent.is_dir():
+        raise InputError("<command line>", "--out", f"no such directory for {args.out}")
+    outcomes = evaluate_candidates(scene, candidates, evaluation, lift=args.lift)
     doc = outcomes_document(scene, candidates, outcomes, args.plan)
     try:
         Path(args.out).write_text(json.dumps(doc, indent=1), encoding="utf-8")
@@ -231,6 +246,11 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--lift", action="store_true",
                     help="also close the gripper and lift the target 5 cm (beyond the paper)")
     ev.add_argument("--out", required=True, help="outcome file (JSON) to write")
+    ev.add_argument("--robust", type=int, metavar="K",
+                    help="the robust judge: K replays, the first nominal, K - 1 in seeded "
+                    "perturbed worlds (default: evaluation.robust_replays)")
+    ev.add_argument("--seed", type=int, help="seed of the perturbed worlds (default: "
+                    "evaluation.robust_seed)")
     _add_config_args(ev)
     ev.set_defaults(func=_cmd_evaluate)
 

@@ -282,6 +282,18 @@ class EvaluationConfig:
     lift_hold_time: float = 0.5
     # lift check: fraction of lift_height the target must rise to count as lifted, unitless; ours
     lift_fraction: float = 0.8
+    # robust judge (beyond the paper): replays per plan, the first nominal (1: nominal), count; ours
+    robust_replays: int = 1
+    # robust judge: seed of the perturbed worlds (replay k uses [seed, k]), integer; ours
+    robust_seed: int = 0
+    # robust judge: half-range of each box's initial shift along x and y (uniform), m; ours
+    robust_position: float = 0.003
+    # robust judge: half-range of each box's initial yaw change (uniform; 3 deg), rad; ours
+    robust_yaw: float = 0.05
+    # robust judge: half-range of each box's relative mass change (uniform), unitless; ours
+    robust_mass: float = 0.2
+    # robust judge: half-range of each box's relative friction change (uniform), unitless; ours
+    robust_friction: float = 0.2
 
 
 @dataclass(frozen=True)

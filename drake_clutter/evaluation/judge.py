@@ -65,9 +65,11 @@ from drake_clutter.evaluation.outcome import (
     Outcome,
     OutcomeKind,
     classify,
+    outcome_grade,
     scene_score,
 )
 from drake_clutter.evaluation.recording import Recorder
+from drake_clutter.evaluation.robust import check_robust, perturbed_scene, summarise
 from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import (
@@ -333,23 +335,46 @@ def _unsimulated(scene: Scene, trajectory: Trajectory, reason: str) -> Outcome:
 
 
 def evaluate(scene: Scene, trajectory: Trajectory, config: EvaluationConfig | None = None,
-             lift: bool = False, record_fps: float | None = None) -> Outcome:
+             lift: bool = False, record_fps: float | None = None, robust: int | None = None,
+             seed: int | None = None) -> Outcome:
     """Replays ``trajectory`` in a fresh Bullet world of ``scene`` and classifies the result
     (Sec. III; see the module docstring). With ``lift``, the grasp-and-lift check runs after
     the classification (not after a kinematic failure) and is recorded in ``Outcome.lift``.
     With ``record_fps``, ``Outcome.recording`` holds the replay's frames at that rate (see
     `recording`; reading only, the outcome is the same).
 
+    The robust judge: with ``robust`` = K > 1 replays (default ``config.robust_replays``) and
+    ``seed`` (default ``config.robust_seed``), the plan is replayed again in K - 1 perturbed
+    worlds (`robust.perturbed_scene`); the outcome is the nominal one, with
+    ``Outcome.robust`` holding the K classes and grades, and ``wall_time`` all K replays.
+
     Deterministic: the same scene, trajectory and configuration give the same Outcome (but for
-    ``wall_time``). Raises ValueError for a trajectory over other joints than TRAJECTORY_JOINTS.
+    ``wall_time``). Raises ValueError for a trajectory over other joints than TRAJECTORY_JOINTS
+    and ConfigError for a robust setting that makes no sense (`robust.check_robust`).
     """
     config = config or EvaluationConfig()
+    changes = {"robust_replays": robust, "robust_seed": seed}
+    config = replace(config, **{k: v for k, v in changes.items() if v is not None})
+    check_robust(config)
     started = time.perf_counter()
+    nominal = _replay_once(scene, trajectory, config, lift, record_fps)
+    if config.robust_replays == 1:
+        return _with_wall_time(nominal, started)
+    outcomes = [nominal] + [_replay_once(perturbed_scene(scene, config, k), trajectory, config,
+                                         lift=False, record_fps=None)
+                            for k in range(1, config.robust_replays)]
+    summary = summarise(config.robust_seed, [o.kind for o in outcomes],
+                        [outcome_grade(o) for o in outcomes])
+    return _with_wall_time(replace(nominal, robust=summary), started)
+
+
+def _replay_once(scene: Scene, trajectory: Trajectory, config: EvaluationConfig, lift: bool,
+                 record_fps: float | None) -> Outcome:
+    """One replay and its classification (`evaluate` without the robust replays)."""
     violation = plan_limit_violation(trajectory, config)
     if violation:
-        outcome = _unsimulated(scene, trajectory, f"the arm cannot follow the trajectory: "
-                                                  f"{violation}")
-        return _with_wall_time(outcome, started)
+        return _unsimulated(scene, trajectory, f"the arm cannot follow the trajectory: "
+                                               f"{violation}")
     with bw.build_bullet_world(scene, config) as world:
         p_start, _ = bw.box_poses(world)
         monitor = _Monitor(world, config)
@@ -369,7 +394,7 @@ def evaluate(scene: Scene, trajectory: Trajectory, config: EvaluationConfig | No
     outcome = Outcome(kind, reason, boxes, grasp, monitor.forces, monitor.tracking_error,
                       monitor.finger_error, t, trajectory.duration, settled, lifted,
                       recording=recording)
-    return _with_wall_time(outcome, started)
+    return outcome
 
 
 def _with_wall_time(outcome: Outcome, started: float) -> Outcome:
@@ -413,26 +438,38 @@ def check_plan(scene: Scene, plan_scene: str, candidates: Sequence[Candidate], p
 
 def outcomes_document(scene: Scene, candidates: Sequence[Candidate],
                       outcomes: Sequence[Outcome], plan: str = "") -> dict:
-    """The JSON document of a scene's evaluated candidates and its scene score (Sec. VI-B)."""
-    return {"format": OUTCOMES_FORMAT, "scene": scene.name, "plan": str(plan),
-            "scene_score": scene_score(o.kind for o in outcomes),
-            "candidates": [{"alpha": c.alpha, "planner": c.planner, "status": c.status,
-                            "outcome": o.to_data()}
-                           for c, o in zip(candidates, outcomes, strict=True)]}
+    """The JSON document of a scene's evaluated candidates and its scene score (Sec. VI-B);
+    with robust outcomes also the scene's robust success (its best candidate's P(success))."""
+    doc = {"format": OUTCOMES_FORMAT, "scene": scene.name, "plan": str(plan),
+           "scene_score": scene_score(o.kind for o in outcomes),
+           "candidates": [{"alpha": c.alpha, "planner": c.planner, "status": c.status.value,
+                           "outcome": o.to_data()}
+                          for c, o in zip(candidates, outcomes, strict=True)]}
+    robust = [o.robust.p_success for o in outcomes if o.robust is not None]
+    if robust:
+        doc["scene_p_success"] = max(robust)
+    return doc
 
 
 def outcome_table(candidates: Sequence[Candidate], outcomes: Sequence[Outcome]) -> str:
     """A plain-text table, one row per candidate: outcome, largest box displacement (cm),
     tipped/fallen counts, largest windowed shelf force beyond a box's weight (N), largest arm
     lag (rad), the lift result and the reason."""
+    robust = any(o.robust is not None for o in outcomes)
     header = (f"{'#':>3} {'planner':10} {'alpha':>6} {'outcome':18} {'moved':>6} {'tip':>3} "
-              f"{'fall':>4} {'F_shelf':>7} {'lag':>6} {'lift':5} reason")
+              f"{'fall':>4} {'F_shelf':>7} {'lag':>6} {'lift':5} "
+              + (f"{'P(s)':>5} {'P(s|p)':>6} " if robust else "") + "reason")
     rows = [header]
     for i, (c, o) in enumerate(zip(candidates, outcomes, strict=True)):
         moved = max((b.displacement for b in o.boxes), default=0.0) * 100
         lift = "-" if o.lift is None else ("yes" if o.lift.lifted else "no")
+        spread = ""
+        if robust:
+            r = o.robust
+            spread = (f"{'-':>5} {'-':>6} " if r is None else
+                      f"{r.p_success:>5.2f} {r.p_success_or_partial:>6.2f} ")
         rows.append(f"{i:>3} {c.planner[:10]:10} {c.alpha:>6.3f} {o.kind:18} {moved:>6.1f} "
                     f"{sum(b.tipped for b in o.boxes):>3} {sum(b.fallen for b in o.boxes):>4} "
                     f"{o.forces.get('box_static_excess_mean', 0.0):>7.1f} "
-                    f"{o.tracking_error:>6.3f} {lift:5} {o.reason}")
+                    f"{o.tracking_error:>6.3f} {lift:5} {spread}{o.reason}")
     return "\n".join(rows)

@@ -15,6 +15,7 @@ from enum import StrEnum
 
 from drake_clutter.evaluation.lift_check import LiftResult
 from drake_clutter.evaluation.recording import Recording
+from drake_clutter.evaluation.robust import RobustSummary
 
 
 class OutcomeKind(StrEnum):
@@ -77,7 +78,9 @@ class Outcome:
     beyond the box's weight); ``arm_static_penetration`` is in m. ``tracking_error`` is the
     largest arm-joint lag (rad), ``finger_error`` the largest finger lag (m). ``recording``
     holds the replay's frames when `evaluate` was asked for them (``record_fps``); it is left
-    out of ``to_data`` and of comparisons.
+    out of ``to_data`` and of comparisons. ``robust`` holds the robust judge's K replays
+    (`robust.RobustSummary`) when more than one was asked for; ``to_data`` writes the key only
+    then, so a nominal outcome's data is as it always was.
     """
 
     kind: OutcomeKind
@@ -93,6 +96,7 @@ class Outcome:
     lift: LiftResult | None = None
     wall_time: float = 0.0  # s of computer time (not part of the physics)
     recording: Recording | None = field(default=None, compare=False, repr=False)
+    robust: RobustSummary | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "kind", OutcomeKind(self.kind))
@@ -104,7 +108,7 @@ class Outcome:
 
     def to_data(self) -> dict:
         """JSON-ready dict."""
-        return {"kind": self.kind.value, "reason": self.reason,
+        data = {"kind": self.kind.value, "reason": self.reason,
                 "grasp": None if self.grasp is None else self.grasp.to_data(),
                 "boxes": [b.to_data() for b in self.boxes], "forces": dict(self.forces),
                 "tracking_error": self.tracking_error, "finger_error": self.finger_error,
@@ -112,13 +116,16 @@ class Outcome:
                 "settled": self.settled,
                 "lift": None if self.lift is None else self.lift.to_data(),
                 "wall_time": self.wall_time}
+        if self.robust is not None:
+            data["robust"] = self.robust.to_data()
+        return data
 
     @staticmethod
     def from_data(data: dict) -> Outcome:
         """Inverse of `to_data` (KeyError/TypeError/ValueError on malformed data)."""
         if data["kind"] not in OUTCOME_KINDS:
             raise ValueError(f"unknown outcome kind {data['kind']!r}")
-        grasp, lift = data.get("grasp"), data.get("lift")
+        grasp, lift, robust = data.get("grasp"), data.get("lift"), data.get("robust")
         return Outcome(
             kind=data["kind"], reason=str(data["reason"]),
             boxes=tuple(BoxOutcome(**{**b, "final_position": tuple(b["final_position"])})
@@ -133,7 +140,8 @@ class Outcome:
             settled=bool(data.get("settled", False)),
             lift=None if lift is None else LiftResult(
                 **{**lift, "others_lifted": tuple(lift["others_lifted"])}),
-            wall_time=float(data.get("wall_time", 0.0)))
+            wall_time=float(data.get("wall_time", 0.0)),
+            robust=None if robust is None else RobustSummary.from_data(robust))
 
 
 # ----------------------------------------------------------------------------- classification

@@ -37,6 +37,7 @@ from typing import Literal
 
 from drake_clutter.common.config import Config, config_to_data, load_config
 from drake_clutter.common.typed_yaml import InputError, from_data, read_yaml_file
+from drake_clutter.evaluation.robust import check_robust
 from drake_clutter.planners.registry import (
     PlannerName,
     check_planners,
@@ -180,13 +181,15 @@ def check_spec(spec: ExperimentSpec, file) -> None:
 def resolve_config(spec: ExperimentSpec, name: str, file="<spec>") -> Config:
     """The project Config of configuration ``name``: defaults, the spec's common overrides,
     then the configuration's own. A bad override or a setting the planners reject
-    (`baseline.check_config`, `pipeline.check_config`) raises SpecError naming the field."""
+    (`Planner.check`) or the robust judge rejects (`robust.check_robust`) raises SpecError
+    naming the field."""
     where = "overrides"
     try:
         load_config(None, list(spec.overrides))
         where = f"configurations.{name}"
         config = load_config(None, list(spec.overrides) + list(spec.configurations[name]))
         check_planners(config, planner_names())
+        check_robust(config.evaluation)
     except InputError as exc:
         raise SpecError(file, f"{where} ({exc.field})", exc.reason) from None
     return config

@@ -4,7 +4,9 @@ Table ``results`` holds one row per work unit, unique on (scene, planner, angle,
 the scene's kind and number of boxes, the configuration's name, the approach angle alpha
 (rad), the outcome kind, the outcome and plan as JSON (deterministic: no wall times), the
 timings as JSON (s), the error text ('' unless the unit's planner or evaluation raised or its
-worker died) and when it was written (Unix time). Table ``configurations`` maps each hash to
+worker died), when it was written (Unix time) and, for a robust judge's outcome, its number of
+replays, P(success), P(success or partial success) and expected grade class (NULL when the
+unit was judged once; `robust.RobustSummary`). Table ``configurations`` maps each hash to
 its name, overrides and the whole resolved configuration; ``runs`` logs each invocation.
 
 Durability: WAL journal with ``synchronous=FULL``, and each result is inserted in its own
@@ -12,6 +14,10 @@ transaction as it arrives, by the one process that runs the executor. A run kill
 moment (SIGKILL included) leaves every committed row intact and no partial row; SQLite's
 journal rolls back an interrupted transaction on the next open. Re-running a spec skips the
 keys already present (`done_keys`).
+
+Formats: ``meta.schema`` names the store's; a store of an older schema gains the columns it
+lacks when opened (its rows keep NULL there and read as before); an unknown schema stops with
+a StoreError naming ``meta.schema``.
 
 Failed rows (``error`` not empty: an exception or a dead worker) count as done unless the
 run asks for ``retry_failed``; then they run again and the new result replaces the failed
@@ -29,7 +35,10 @@ from pathlib import Path
 
 from drake_clutter.common.typed_yaml import InputError
 
-SCHEMA_VERSION = "1"
+SCHEMA_VERSION = "2"
+# Columns each older schema lacks, added (NULL in old rows) when such a store is opened.
+_MIGRATIONS = {"1": ("robust_replays INTEGER", "p_success REAL", "p_success_or_partial REAL",
+                     "expected_grade REAL")}
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -47,11 +56,13 @@ CREATE TABLE IF NOT EXISTS results (
     env TEXT NOT NULL, num_objects INTEGER NOT NULL, alpha REAL,
     kind TEXT NOT NULL, outcome TEXT NOT NULL, plan TEXT, timings TEXT NOT NULL,
     error TEXT NOT NULL DEFAULT '', created REAL NOT NULL,
+    robust_replays INTEGER, p_success REAL, p_success_or_partial REAL, expected_grade REAL,
     UNIQUE (scene, planner, angle, config_hash));
 """
 
 _COLUMNS = ("scene", "planner", "angle", "config_hash", "config_name", "env", "num_objects",
-            "alpha", "kind", "outcome", "plan", "timings", "error", "created")
+            "alpha", "kind", "outcome", "plan", "timings", "error", "created", "robust_replays",
+            "p_success", "p_success_or_partial", "expected_grade")
 
 
 class StoreError(InputError):
@@ -83,9 +94,15 @@ class Store:
             row = self.db.execute("SELECT value FROM meta WHERE key='schema'").fetchone()
             if row is None:
                 self.db.execute("INSERT INTO meta VALUES ('schema', ?)", (SCHEMA_VERSION,))
+            elif row[0] in _MIGRATIONS:
+                for column in _MIGRATIONS[row[0]]:
+                    self.db.execute(f"ALTER TABLE results ADD COLUMN {column}")
+                self.db.execute("UPDATE meta SET value = ? WHERE key = 'schema'",
+                                (SCHEMA_VERSION,))
             elif row[0] != SCHEMA_VERSION:
                 raise StoreError(self.path, "meta.schema",
-                                 f"schema {row[0]}, this version reads {SCHEMA_VERSION}")
+                                 f"schema {row[0]}, this version reads {SCHEMA_VERSION} "
+                                 f"(and {', '.join(_MIGRATIONS)})")
 
     def transaction(self):
         """A context manager: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception)."""
@@ -131,11 +148,14 @@ class Store:
         Inserts the row; if the key exists, overwrites it only when the stored row failed
         (``error`` set). Returns True when a row was written.
         """
+        robust = result["outcome"].get("robust") or {}
         row = (unit["scene"], unit["planner"], int(unit["angle"]), unit["config_hash"],
                unit["config_name"], unit["kind"], int(unit["num_objects"]), result["alpha"],
                result["outcome"]["kind"], json.dumps(result["outcome"], sort_keys=True),
                None if result["plan"] is None else json.dumps(result["plan"], sort_keys=True),
-               json.dumps(result["timings"], sort_keys=True), result["error"], time.time())
+               json.dumps(result["timings"], sort_keys=True), result["error"], time.time(),
+               len(robust["kinds"]) if robust else None, robust.get("p_success"),
+               robust.get("p_success_or_partial"), robust.get("expected_grade"))
         updates = ", ".join(f"{c} = excluded.{c}" for c in _COLUMNS[4:])
         with self.transaction():
             cursor = self.db.execute(

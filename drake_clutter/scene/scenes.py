@@ -249,6 +249,16 @@ def footprints_overlap(a: np.ndarray, b: np.ndarray, tol: float = OVERLAP_TOLERA
     return True
 
 
+def fits_on_shelf(box: BoxObject, shelf: Shelf) -> bool:
+    """True when the box's footprint lies on the board and inside any walls (to within
+    OVERLAP_TOLERANCE), as `validate_scene` requires of every box."""
+    try:
+        _validate_box_on_shelf(0, box, shelf, "<box>")
+    except SceneError:
+        return False
+    return True
+
+
 def validate_scene(scene: Scene, file: str | Path = "<scene>") -> Scene:
     """Checks the scene's meaning (types are checked on load); returns it or raises SceneError."""
     if not scene.name.strip():

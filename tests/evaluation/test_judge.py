@@ -18,6 +18,7 @@ import pybullet as pb
 import pytest
 
 from drake_clutter.cli import main
+from drake_clutter.common.config import ConfigError
 from drake_clutter.evaluation.judge import (
     evaluate,
     evaluate_candidates,
@@ -28,6 +29,7 @@ from drake_clutter.evaluation.judge import (
     zone_extent,
 )
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS, Outcome, classify, scene_score
+from drake_clutter.evaluation.robust import perturbed_scene
 from drake_clutter.robot import pr2
 from drake_clutter.scene.generators import generate_scene
 from drake_clutter.scene.scenes import (
@@ -460,3 +462,73 @@ def test_cli_evaluate_rejects_a_plan_for_another_scene(tmp_path, capsys, clean_r
     assert main(["evaluate", str(scene_file), str(tmp_path / "missing.json"), "--out",
                  str(tmp_path / "o.json")]) == 2
     assert "no such file" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- the robust judge
+
+
+def test_robust_judge_keeps_the_nominal_outcome_and_is_seeded(clean_reach, clean_outcome):
+    scene, trajectory = clean_reach
+    robust = evaluate(scene, trajectory, CONFIG, lift=True, robust=4, seed=3)
+    assert replace(robust, robust=None, wall_time=0.0) == replace(clean_outcome, wall_time=0.0)
+    summary = robust.robust
+    assert summary.replays == 4 and summary.kinds[0] == clean_outcome.kind
+    assert 0.0 <= summary.p_success <= summary.p_success_or_partial <= 1.0
+    assert summary.expected_grade == sum(g[0] for g in summary.grades) / 4
+    again = evaluate(scene, trajectory, CONFIG, lift=True, robust=4, seed=3)
+    assert again.robust == summary
+    assert Outcome.from_data(json.loads(json.dumps(robust.to_data()))) == replace(
+        robust, recording=None)
+    assert "robust" not in clean_outcome.to_data()  # a nominal outcome's data is unchanged
+
+
+def test_perturbed_worlds_are_valid_seeded_and_within_the_ranges():
+    scene = generate_scene("bookshelf", 15, 2015)
+    nominal = {b.name: b for b in scene.boxes}
+    for k in (1, 2, 3):
+        world = perturbed_scene(scene, CONFIG, k)
+        validate_scene(world)
+        assert world == perturbed_scene(scene, CONFIG, k)
+        for box in world.boxes:
+            ref = nominal[box.name]
+            assert np.all(np.abs(np.subtract(box.pose[:2], ref.pose[:2]))
+                          <= CONFIG.robust_position + 1e-12)
+            assert abs(box.pose[2] - ref.pose[2]) <= CONFIG.robust_yaw + 1e-12
+            assert abs(box.density / ref.density - 1) <= CONFIG.robust_mass + 1e-12
+            assert abs(box.friction / ref.friction - 1) <= CONFIG.robust_friction + 1e-12
+    assert perturbed_scene(scene, CONFIG, 1) != perturbed_scene(scene, CONFIG, 2)
+    assert perturbed_scene(scene, CONFIG, 0) is scene
+
+
+@pytest.mark.parametrize("change, field", [
+    ({"robust_replays": 0}, "evaluation.robust_replays"),
+    ({"robust_position": -0.001}, "evaluation.robust_position"),
+    ({"robust_friction": 1.0}, "evaluation.robust_friction"),
+    ({"robust_seed": 1.5}, "evaluation.robust_seed")])
+def test_robust_settings_that_make_no_sense_name_their_field(clean_reach, change, field):
+    with pytest.raises(ConfigError) as err:
+        evaluate(*clean_reach, replace(CONFIG, **change))
+    assert err.value.field == field
+
+
+def test_cli_evaluate_robust_writes_the_distribution_and_rejects_bad_input(tmp_path, capsys,
+                                                                          clean_reach):
+    scene, trajectory = clean_reach
+    scene_file = save_scene(scene, tmp_path / "scene.yaml")
+    plan = save_plan(tmp_path / "plan.json", scene.name,
+                     [Candidate(0.0, "ok", trajectory=trajectory)])
+    out = tmp_path / "outcome.json"
+    assert main(["evaluate", str(scene_file), str(plan), "--robust", "3", "--seed", "7",
+                 "--out", str(out)]) == 0
+    assert "P(s)" in capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    robust = doc["candidates"][0]["outcome"]["robust"]
+    assert robust["seed"] == 7 and len(robust["kinds"]) == 3
+    assert doc["scene_p_success"] == robust["p_success"]
+    for bad, field in ((["--robust", "0"], "--robust"), (["--seed", "-1"], "--seed"),
+                       (["--set", "evaluation.robust_mass=-0.1"], "evaluation.robust_mass")):
+        missing = tmp_path / "never.json"
+        assert main(["evaluate", str(scene_file), str(plan), *bad, "--out", str(missing)]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and field in err, err
+        assert not missing.exists()

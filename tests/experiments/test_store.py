@@ -132,3 +132,48 @@ def test_resume_after_sigkill_loses_and_duplicates_nothing(tmp_path):
     assert set(before) <= set(after)  # committed rows are untouched
     with sqlite3.connect(db) as con:
         assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+
+
+def test_robust_outcomes_fill_their_columns(tmp_path):
+    robust = {"seed": 0, "kinds": ["success", "failure_to_grasp", "success", "success"],
+              "grades": [[0, 0], [2, 0], [0, 0], [0, 1]], "p_success": 0.75,
+              "p_success_or_partial": 0.75, "expected_grade": 0.5}
+    result = _ok()
+    result["outcome"] = {**result["outcome"], "robust": robust}
+    with Store(tmp_path / "r.db") as store:
+        store.put(_unit(angle=0), result)
+        store.put(_unit(angle=1), _ok())
+        first, second = store.rows()
+    assert (first["robust_replays"], first["p_success"], first["expected_grade"]) == (4, 0.75, 0.5)
+    assert first["outcome"]["robust"] == robust
+    assert second["robust_replays"] is None and second["p_success"] is None
+
+
+def test_a_store_of_the_first_schema_gains_the_columns_and_reads_as_before(tmp_path):
+    path = tmp_path / "old.db"
+    with Store(path) as store:
+        store.put(_unit(), _ok())
+    db = sqlite3.connect(path)  # make it what the first schema wrote
+    for column in ("robust_replays", "p_success", "p_success_or_partial", "expected_grade"):
+        db.execute(f"ALTER TABLE results DROP COLUMN {column}")
+    db.execute("UPDATE meta SET value = '1' WHERE key = 'schema'")
+    db.commit()
+    db.close()
+    with Store(path, create=False) as store:
+        (row,) = store.rows()
+        assert row["kind"] == "success" and row["p_success"] is None
+        assert store.put(_unit(angle=1), _ok("partial_success"))
+    assert sqlite3.connect(path).execute("SELECT value FROM meta").fetchone() == ("2",)
+
+
+def test_a_store_of_an_unknown_schema_stops_with_its_field(tmp_path):
+    path = tmp_path / "future.db"
+    with Store(path) as store:
+        store.put(_unit(), _ok())
+    db = sqlite3.connect(path)
+    db.execute("UPDATE meta SET value = '9' WHERE key = 'schema'")
+    db.commit()
+    db.close()
+    with pytest.raises(StoreError) as err:
+        Store(path, create=False)
+    assert err.value.field == "meta.schema" and "schema 9" in err.value.reason

@@ -187,12 +187,14 @@ def _cmd_experiment_run(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from drake_clutter.experiments.report import write_report
+    from drake_clutter.experiments.report import check_report_config, write_report
     from drake_clutter.experiments.store import Store
 
+    config = _load_config(args)
+    check_report_config(config.report, args.config or "<command line>")
     with Store(args.db, create=False) as store:
         rows = store.rows()
-    paths = write_report(rows, args.out, source=str(args.db))
+    paths = write_report(rows, args.out, source=str(args.db), config=config.report)
     print(f"{len(rows)} rows from {args.db}; wrote {', '.join(sorted(paths))} to {args.out}")
     return 0
 
@@ -281,6 +283,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep = groups.add_parser("report", help="Tables III/IV and Fig. 9 from a store")
     rep.add_argument("db", help="an experiment store (SQLite)")
     rep.add_argument("--out", required=True, help="directory for the Markdown, CSV and PNGs")
+    _add_config_args(rep)
     rep.set_defaults(func=_cmd_report)
 
     cfg = groups.add_parser("config", help="inspect the configuration")

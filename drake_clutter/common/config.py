@@ -483,6 +483,18 @@ class VizConfig:
 
 
 @dataclass(frozen=True)
+class ReportConfig:
+    """Statistics of the experiment report (beyond the paper): all ours."""
+
+    # bootstrap resamples of the paired comparison's confidence intervals, count; ours
+    bootstrap_resamples: int = 10000
+    # seed of the bootstrap resampling, integer; ours
+    bootstrap_seed: int = 0
+    # coverage of the confidence intervals, unitless (0.95 = 95 %); ours
+    confidence: float = 0.95
+
+
+@dataclass(frozen=True)
 class Config:
     """All settings of drake_clutter, one section per module."""
 
@@ -500,6 +512,8 @@ class Config:
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
     # Meshcat replays of plans (beyond the paper), section; ours
     viz: VizConfig = field(default_factory=VizConfig)
+    # statistics of the experiment report (beyond the paper), section; ours
+    report: ReportConfig = field(default_factory=ReportConfig)
 
 
 def config_to_data(config: Config) -> dict:

@@ -33,9 +33,16 @@ import csv
 from collections import defaultdict
 from pathlib import Path
 
-from scipy.stats import binomtest
+import numpy as np
+from scipy.stats import binomtest, wilcoxon
 
-from drake_clutter.evaluation.outcome import OUTCOME_KINDS, behaviour_grade, scene_score
+from drake_clutter.common.config import ConfigError, ReportConfig
+from drake_clutter.evaluation.outcome import (
+    GRADE_CLASSES,
+    OUTCOME_KINDS,
+    behaviour_grade,
+    scene_score,
+)
 
 ENVIRONMENTS = ("bookshelf", "fridge")
 ENV_LABELS = {"bookshelf": "Bookshelf", "fridge": "Refrigerator", "aggregate": "Aggregate"}
@@ -59,6 +66,19 @@ PAPER_FIG9_NOTE = ("The paper gives Fig. 9's curves as plots only; its text: at 
                    "from about 6 objects on; Fig. 9c's time per initialization grows with the "
                    "number of objects (C++, 24-core workstation).")
 PHYSICS_STAGES = ("pre", "sphere", "full", "post")
+
+
+def check_report_config(config: ReportConfig, file: str = "<configuration>") -> None:
+    """Raises ConfigError naming the first ``report.*`` setting that makes no sense."""
+    if config.bootstrap_resamples < 1:
+        raise ConfigError(file, "report.bootstrap_resamples",
+                          f"must be at least 1, got {config.bootstrap_resamples}")
+    if config.bootstrap_seed < 0:
+        raise ConfigError(file, "report.bootstrap_seed",
+                          f"must be non-negative, got {config.bootstrap_seed}")
+    if not 0.0 < config.confidence < 1.0:
+        raise ConfigError(file, "report.confidence",
+                          f"must lie strictly between 0 and 1, got {config.confidence}")
 
 
 def _pct(part: int, whole: int) -> float | None:
@@ -87,13 +107,25 @@ def scene_scores(rows: list[dict]) -> dict[str, tuple[str, int, str]]:
     return {s: (*meta[s], scene_score(k)) for s, k in kinds.items()}
 
 
+def robust_scene_success(rows: list[dict], partial: bool = False) -> dict[str, float]:
+    """scene -> its robust success over the rows of one group: the best angle's P(success)
+    (or P(success or partial success); `row_p_success`)."""
+    best: dict[str, float] = {}
+    for row in rows:
+        best[row["scene"]] = max(best.get(row["scene"], 0.0), row_p_success(row, partial))
+    return best
+
+
 def table_iii(rows: list[dict]) -> list[dict]:
     """Table III rows: per group and environment (and aggregate), scenes and percentages."""
     out = []
     for (config, planner), group in groups(rows).items():
         scores = scene_scores(group)
+        robust = robust_scene_success(group)
+        robust_or_partial = robust_scene_success(group, partial=True)
         for env in (*ENVIRONMENTS, "aggregate"):
-            chosen = [s for e, _, s in scores.values() if env in ("aggregate", e)]
+            names = [s for s, (e, _, _) in scores.items() if env in ("aggregate", e)]
+            chosen = [scores[s][2] for s in names]
             n = len(chosen)
             success, partial = chosen.count("success"), chosen.count("partial_success")
             paper = PAPER_TABLE_III.get(planner, {}).get(env, (None, None))
@@ -101,6 +133,9 @@ def table_iii(rows: list[dict]) -> list[dict]:
                         "scenes": n, "success_pct": _pct(success, n),
                         "partial_pct": _pct(partial, n),
                         "success_or_partial_pct": _pct(success + partial, n),
+                        "robust_success_pct": _pct(sum(robust[s] for s in names), n),
+                        "robust_success_or_partial_pct": _pct(
+                            sum(robust_or_partial[s] for s in names), n),
                         "paper_success_or_partial_pct": paper[0], "paper_partial_pct": paper[1]})
     return out
 
@@ -112,13 +147,40 @@ def table_iv(rows: list[dict]) -> list[dict]:
     for (config, planner), group in groups(rows).items():
         kinds = [r["kind"] for r in group]
         trajectories = sum(k != "planner_failure" for k in kinds)
+        replays = [k for r in group if r["kind"] != "planner_failure" for k in row_kinds(r)]
         for kind in TRAJECTORY_KINDS:
             out.append({"configuration": config, "planner": planner, "outcome": kind,
                         "count": kinds.count(kind), "pct": _pct(kinds.count(kind), trajectories),
+                        "robust_pct": _pct(replays.count(kind), len(replays)),
                         "paper_pct": PAPER_TABLE_IV.get(planner, {}).get(kind)})
         out.append({"configuration": config, "planner": planner, "outcome": "planner_failure",
-                    "count": kinds.count("planner_failure"), "pct": None, "paper_pct": None})
+                    "count": kinds.count("planner_failure"), "pct": None, "robust_pct": None,
+                    "paper_pct": None})
     return out
+
+
+def row_p_success(row: dict, partial: bool = False) -> float:
+    """A stored row's P(success) (or P(success or partial success)): the robust judge's over
+    its K replays, else 1 or 0 by its one (nominal) outcome."""
+    robust = (row.get("outcome") or {}).get("robust")
+    if robust:
+        return float(robust["p_success_or_partial" if partial else "p_success"])
+    return float(row["kind"] in (("success", "partial_success") if partial else ("success",)))
+
+
+def row_expected_grade(row: dict) -> float:
+    """A stored row's expected grade class (0 success .. 4 no plan): the robust judge's mean
+    over its K replays, else its one outcome's class."""
+    robust = (row.get("outcome") or {}).get("robust")
+    if robust:
+        return float(robust["expected_grade"])
+    return float(GRADE_CLASSES[row["kind"]])
+
+
+def row_kinds(row: dict) -> list[str]:
+    """The classes of a stored row's replays: the robust judge's K, else its one kind."""
+    robust = (row.get("outcome") or {}).get("robust")
+    return list(robust["kinds"]) if robust else [row["kind"]]
 
 
 def row_grade(row: dict) -> tuple[int, int]:
@@ -146,13 +208,50 @@ def paired_rows(rows: list[dict]) -> list[dict]:
         gp, gb = row_grade(r), row_grade(b)
         out.append({"configuration": r["config_name"], "scene": r["scene"], "angle": r["angle"],
                     "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
-                    "physics_grade": gp, "verdict": verdict(gp, gb)})
+                    "physics_grade": gp, "verdict": verdict(gp, gb),
+                    "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
+                    "baseline_expected_grade": row_expected_grade(b),
+                    "physics_expected_grade": row_expected_grade(r)})
     return out
 
 
-def paired_comparison(rows: list[dict]) -> list[dict]:
-    """Per configuration: pairs, better / same / worse, kinematic failures of each planner and
-    the two-sided sign test's p-value on better against worse (None when all tie)."""
+def bootstrap_interval(values, config: ReportConfig) -> tuple[float, float]:
+    """The percentile bootstrap interval (``config.confidence``) of the mean of ``values``,
+    ``config.bootstrap_resamples`` resamples seeded with ``config.bootstrap_seed``."""
+    values = np.asarray(values, dtype=float)
+    if len(values) == 0:
+        return (float("nan"), float("nan"))
+    rng = np.random.default_rng(config.bootstrap_seed)
+    means = values[rng.integers(0, len(values), (config.bootstrap_resamples, len(values)))]
+    tail = 50.0 * (1.0 - config.confidence)
+    low, high = np.percentile(means.mean(axis=1), [tail, 100.0 - tail])
+    return float(low), float(high)
+
+
+def signed_rank_p(differences) -> float | None:
+    """Two-sided Wilcoxon signed-rank p-value of paired differences (zeros dropped); None
+    when every difference is zero."""
+    nonzero = [d for d in differences if d != 0]
+    if not nonzero:
+        return None
+    return float(wilcoxon(nonzero).pvalue)
+
+
+def _mean_difference(pairs: list[dict], key: str, config: ReportConfig) -> dict:
+    """Mean of physics minus baseline in ``key`` over the pairs, its interval and p-value."""
+    diffs = [p[f"physics_{key}"] - p[f"baseline_{key}"] for p in pairs]
+    low, high = bootstrap_interval(diffs, config)
+    return {f"{key}_diff": float(np.mean(diffs)), f"{key}_ci_low": low,
+            f"{key}_ci_high": high, f"{key}_wilcoxon_p": signed_rank_p(diffs)}
+
+
+def paired_comparison(rows: list[dict], settings: ReportConfig | None = None) -> list[dict]:
+    """Per configuration: pairs, better / same / worse, kinematic failures of each planner,
+    the two-sided sign test's p-value on better against worse (None when all tie), and the
+    mean difference physics minus baseline per initialization in P(success) and in expected
+    grade class, each with its bootstrap interval (``settings``) and Wilcoxon signed-rank
+    p-value."""
+    settings = settings or ReportConfig()
     by_config: dict[str, list[dict]] = {}
     for p in paired_rows(rows):
         by_config.setdefault(p["configuration"], []).append(p)
@@ -167,7 +266,9 @@ def paired_comparison(rows: list[dict]) -> list[dict]:
                     "baseline_kinematic_failures": sum(p["baseline"] == "kinematic_failure"
                                                        for p in pairs),
                     "sign_test_p": (binomtest(better, better + worse).pvalue
-                                    if better + worse else None)})
+                                    if better + worse else None),
+                    **_mean_difference(pairs, "p_success", settings),
+                    **_mean_difference(pairs, "expected_grade", settings)})
     return out
 
 
@@ -188,10 +289,12 @@ def fig9_data(rows: list[dict]) -> list[dict]:
     out = []
     for (config, planner), group in groups(rows).items():
         scores = scene_scores(group)
+        robust = robust_scene_success(group)
         for env in ENVIRONMENTS:
             levels = sorted({n for e, n, _ in scores.values() if e == env})
             for n in levels:
-                chosen = [s for e, m, s in scores.values() if e == env and m == n]
+                names = [s for s, (e, m, _) in scores.items() if e == env and m == n]
+                chosen = [scores[s][2] for s in names]
                 times = [t for r in group if r["env"] == env and r["num_objects"] == n
                          for t in [_init_seconds(r)] if t is not None]
                 success, partial = chosen.count("success"), chosen.count("partial_success")
@@ -199,6 +302,8 @@ def fig9_data(rows: list[dict]) -> list[dict]:
                             "num_objects": n, "scenes": len(chosen),
                             "success_pct": _pct(success, len(chosen)),
                             "success_or_partial_pct": _pct(success + partial, len(chosen)),
+                            "robust_success_pct": _pct(sum(robust[s] for s in names),
+                                                       len(chosen)),
                             "initializations": len(times),
                             "mean_seconds_per_init": sum(times) / len(times) if times
                             else None})
@@ -218,8 +323,9 @@ def _axes_figure(title: str):
 
 
 def _draw_success(ax, data: list[dict], env: str) -> None:
-    """% scenes with success (solid) and success or partial (dashed) against the number of
-    objects, one colour per (configuration, planner)."""
+    """% scenes with success (solid), success or partial (dashed) and robust success (dotted:
+    the mean of each scene's best P(success)) against the number of objects, one colour per
+    (configuration, planner)."""
     for i, (key, points) in enumerate(_series(data, env).items()):
         x = [p["num_objects"] for p in points]
         colour = f"C{i}"
@@ -227,6 +333,8 @@ def _draw_success(ax, data: list[dict], env: str) -> None:
                 label=f"{key[1]} ({key[0]}): success")
         ax.plot(x, [p["success_or_partial_pct"] for p in points], "s--", color=colour,
                 alpha=0.6, label=f"{key[1]} ({key[0]}): success or partial")
+        ax.plot(x, [p["robust_success_pct"] for p in points], "^:", color=colour,
+                alpha=0.8, label=f"{key[1]} ({key[0]}): robust success")
     ax.set_xlabel("number of objects")
     ax.set_ylabel("scenes (%)")
     ax.set_ylim(-5, 105)
@@ -302,52 +410,68 @@ def _series(data: list[dict], env: str) -> dict[tuple[str, str], list[dict]]:
 def markdown_table_iii(table: list[dict]) -> str:
     """Table III as Markdown: ours "cumulative (partial)" beside the paper's."""
     lines = ["| configuration | planner | environment | scenes | ours: success or partial "
-             "(partial) | ours: success | paper: success or partial (partial) |",
-             "|---|---|---|---:|---:|---:|---:|"]
+             "(partial) | ours: success | robust: success or partial | robust: success | "
+             "paper: success or partial (partial) |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|"]
     for r in table:
         paper = ("-" if r["paper_success_or_partial_pct"] is None else
                  f"{r['paper_success_or_partial_pct']:.1f}% ({r['paper_partial_pct']:.1f}%)")
         lines.append(f"| {r['configuration']} | {r['planner']} | {ENV_LABELS[r['environment']]}"
                      f" | {r['scenes']} | {_fmt(r['success_or_partial_pct'])} "
-                     f"({_fmt(r['partial_pct'])}) | {_fmt(r['success_pct'])} | {paper} |")
+                     f"({_fmt(r['partial_pct'])}) | {_fmt(r['success_pct'])} | "
+                     f"{_fmt(r['robust_success_or_partial_pct'])} | "
+                     f"{_fmt(r['robust_success_pct'])} | {paper} |")
     return "\n".join(lines)
 
 
 def markdown_table_iv(table: list[dict]) -> str:
     """Table IV as Markdown: ours (count and % of trajectories) beside the paper's %."""
-    lines = ["| configuration | planner | outcome | ours: trajectories | ours: % | paper: % |",
-             "|---|---|---|---:|---:|---:|"]
+    lines = ["| configuration | planner | outcome | ours: trajectories | ours: % | robust: % of "
+             "replays | paper: % |", "|---|---|---|---:|---:|---:|---:|"]
     for r in table:
         paper = "-" if r["paper_pct"] is None else f"{r['paper_pct']:.1f}%"
         outcome = ("no trajectory (planner_failure, not in the %)"
                    if r["outcome"] == "planner_failure" else r["outcome"])
         lines.append(f"| {r['configuration']} | {r['planner']} | {outcome} | {r['count']} | "
-                     f"{_fmt(r['pct'])} | {paper} |")
+                     f"{_fmt(r['pct'])} | {_fmt(r['robust_pct'])} | {paper} |")
     return "\n".join(lines)
 
 
 def markdown_fig9(data: list[dict]) -> str:
     """Fig. 9's points as a Markdown table."""
     lines = ["| configuration | planner | environment | objects | scenes | success | "
-             "success or partial | initializations | s per initialization |",
-             "|---|---|---|---:|---:|---:|---:|---:|---:|"]
+             "success or partial | robust success | initializations | s per initialization |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for p in data:
         secs = "-" if p["mean_seconds_per_init"] is None else f"{p['mean_seconds_per_init']:.2f}"
         lines.append(f"| {p['configuration']} | {p['planner']} | {ENV_LABELS[p['environment']]}"
                      f" | {p['num_objects']} | {p['scenes']} | {_fmt(p['success_pct'])} | "
-                     f"{_fmt(p['success_or_partial_pct'])} | {p['initializations']} | {secs} |")
+                     f"{_fmt(p['success_or_partial_pct'])} | {_fmt(p['robust_success_pct'])} | "
+                     f"{p['initializations']} | {secs} |")
     return "\n".join(lines)
 
 
-def markdown_paired(table: list[dict]) -> str:
-    """The paired comparison as Markdown."""
+def _p(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3f}"
+
+
+def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> str:
+    """The paired comparison as Markdown: better / same / worse with the sign test, and the
+    mean differences (physics minus baseline) with their intervals and Wilcoxon p-values."""
+    level = f"{100 * (config or ReportConfig()).confidence:g} %"
     lines = ["| configuration | pairs | physics better | same | worse | kinematic failures "
-             "physics / baseline | sign test p |", "|---|---:|---:|---:|---:|---:|---:|"]
+             f"physics / baseline | sign test p | P(success) difference [{level} CI] | "
+             f"Wilcoxon p | expected grade difference [{level} CI] | Wilcoxon p |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in table:
-        p = "-" if r["sign_test_p"] is None else f"{r['sign_test_p']:.3f}"
         lines.append(f"| {r['configuration']} | {r['pairs']} | {r['better']} | {r['same']} | "
                      f"{r['worse']} | {r['physics_kinematic_failures']} / "
-                     f"{r['baseline_kinematic_failures']} | {p} |")
+                     f"{r['baseline_kinematic_failures']} | {_p(r['sign_test_p'])} | "
+                     f"{r['p_success_diff']:+.3f} [{r['p_success_ci_low']:+.3f}, "
+                     f"{r['p_success_ci_high']:+.3f}] | {_p(r['p_success_wilcoxon_p'])} | "
+                     f"{r['expected_grade_diff']:+.3f} [{r['expected_grade_ci_low']:+.3f}, "
+                     f"{r['expected_grade_ci_high']:+.3f}] | "
+                     f"{_p(r['expected_grade_wilcoxon_p'])} |")
     return "\n".join(lines)
 
 
@@ -358,10 +482,13 @@ def _write_csv(path: Path, table: list[dict]) -> None:
         writer.writerows(table)
 
 
-def write_report(rows: list[dict], out_dir: str | Path, source: str = "") -> dict[str, Path]:
+def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
+                 config: ReportConfig | None = None) -> dict[str, Path]:
     """Writes report.md, table3.{md,csv}, table4.{md,csv}, fig9.csv, fig9a/b/c.png, fig9.png
     (the three panels together) and paired.csv (physics against the baseline per
-    initialization) into ``out_dir`` (created); returns the paths by name."""
+    initialization) into ``out_dir`` (created); returns the paths by name. ``config``: the
+    paired comparison's bootstrap settings."""
+    config = config or ReportConfig()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t3, t4, f9 = table_iii(rows), table_iv(rows), fig9_data(rows)
@@ -395,7 +522,10 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "") -> dic
             "", "Each physics plan against the baseline plan of the same scene, angle and "
             "configuration: the outcome class first (success, partial, failure to grasp or "
             "objects falling, kinematic failure), then the boxes tipped or fallen. Per pair: "
-            "paired.csv.", "", markdown_paired(paired_comparison(rows)), ""]
+            "paired.csv. The differences are per initialization, physics minus baseline: "
+            "P(success) (the robust judge's over its replays, else 1 or 0) and the expected "
+            "grade class (lower is better), with a seeded percentile bootstrap interval.", "",
+            markdown_paired(paired_comparison(rows, config), config), ""]
     paths["report.md"].write_text("\n".join(text), encoding="utf-8")
     return paths
 

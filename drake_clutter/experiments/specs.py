@@ -195,7 +195,7 @@ def resolve_config(spec: ExperimentSpec, name: str, file="<spec>") -> Config:
     return config
 
 
-UNHASHED_SECTIONS = ("viz",)  # configuration sections that cannot change a row (drawing)
+UNHASHED_SECTIONS = ("viz", "report")  # sections that cannot change a row (drawing, statistics)
 
 
 def config_hash(config: Config) -> str:

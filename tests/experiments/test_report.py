@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from drake_clutter.cli import main
+from drake_clutter.common.config import ReportConfig
 from drake_clutter.experiments.report import (
     PAPER_TABLE_III,
+    bootstrap_interval,
     paired_comparison,
     paired_rows,
     table_iii,
@@ -152,3 +154,58 @@ def test_paired_grade_counts_disturbed_boxes_within_a_class():
     assert paired_rows([row("baseline", "success", 0, "a"), row("physics", "success", 0)]) == []
     (summary,) = paired_comparison([row("baseline", "success", 0), row("physics", "success", 0)])
     assert summary["same"] == 1 and summary["sign_test_p"] is None
+
+
+def test_paired_differences_have_a_seeded_interval_and_a_signed_rank_p(tmp_path):
+    rows = _fill(tmp_path / "r.db")
+    (summary,) = paired_comparison(rows)
+    # Nominal rows: P(success) is 1 or 0; physics gains a success on 3 of the 10 pairs.
+    assert summary["p_success_diff"] == pytest.approx(0.3)
+    assert summary["p_success_ci_low"] <= 0.3 <= summary["p_success_ci_high"]
+    assert 0.0 <= summary["p_success_ci_low"] and summary["p_success_ci_high"] <= 0.6 + 1e-12
+    assert summary["p_success_wilcoxon_p"] == pytest.approx(0.25)  # 3 of 3 untied pairs up
+    assert paired_comparison(rows) == [summary]  # the same seed, the same interval
+    wider = paired_comparison(rows, ReportConfig(confidence=0.99))[0]
+    assert wider["p_success_ci_low"] <= summary["p_success_ci_low"]
+    assert bootstrap_interval([0.25] * 7, ReportConfig()) == (0.25, 0.25)
+    narrow = bootstrap_interval(np.tile([0.0, 1.0], 200), ReportConfig())
+    broad = bootstrap_interval([0.0, 1.0] * 5, ReportConfig())
+    assert broad[0] < narrow[0] < 0.5 < narrow[1] < broad[1]
+
+
+def _robust_row(planner, scene, angle, kinds):
+    grades = [[{"success": 0, "partial_success": 1}.get(k, 2), 0] for k in kinds]
+    robust = {"seed": 0, "kinds": kinds, "grades": grades,
+              "p_success": kinds.count("success") / len(kinds),
+              "p_success_or_partial": sum(k in ("success", "partial_success") for k in kinds)
+              / len(kinds), "expected_grade": sum(g[0] for g in grades) / len(kinds)}
+    return {"config_name": "c", "scene": scene, "angle": angle, "planner": planner,
+            "env": "bookshelf", "num_objects": 5, "kind": kinds[0],
+            "outcome": {"kind": kinds[0], "robust": robust}, "timings": {}}
+
+
+def test_robust_columns_take_each_scenes_best_angle_and_every_replay():
+    rows = [_robust_row("baseline", "a", 0, ["success", "failure_to_grasp", "success", "success"]),
+            _robust_row("baseline", "a", 1, ["failure_to_grasp"] * 3 + ["success"]),
+            _robust_row("baseline", "b", 0, ["partial_success"] * 2 + ["failure_to_grasp"] * 2),
+            _robust_row("physics", "a", 0, ["success"] * 4),
+            _robust_row("physics", "a", 1, ["success"] * 2 + ["failure_to_grasp"] * 2),
+            _robust_row("physics", "b", 0, ["success", "partial_success"] * 2)]
+    base = _by(table_iii(rows), planner="baseline", environment="bookshelf")[0]
+    assert base["robust_success_pct"] == pytest.approx(100 * (0.75 + 0.0) / 2)
+    assert base["robust_success_or_partial_pct"] == pytest.approx(100 * (0.75 + 0.5) / 2)
+    t4 = {r["outcome"]: r for r in _by(table_iv(rows), planner="baseline")}
+    assert t4["success"]["robust_pct"] == pytest.approx(100 * 4 / 12)
+    assert t4["partial_success"]["robust_pct"] == pytest.approx(100 * 2 / 12)
+    (summary,) = paired_comparison(rows)
+    assert summary["p_success_diff"] == pytest.approx(((1 - .75) + (.5 - .25) + (.5 - 0)) / 3)
+    assert summary["expected_grade_diff"] < 0  # physics lower, i.e. better
+
+
+def test_a_report_setting_that_makes_no_sense_names_its_field(tmp_path, capsys):
+    _fill(tmp_path / "r.db")
+    out = tmp_path / "never"
+    assert main(["report", str(tmp_path / "r.db"), "--out", str(out),
+                 "--set", "report.confidence=1.5"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "report.confidence" in err and not out.exists()

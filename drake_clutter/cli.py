@@ -8,6 +8,7 @@ Subcommands:
   plan SCENE --planner baseline|physics|both [--angles K] --out PLAN.json
   evaluate SCENE PLAN.json [--lift] [--robust K] [--seed S] --out OUTCOMES.json
   experiment run SPEC|TIER --db RUN.db [--workers N] [--executor local|ray]
+  experiment rejudge RUN.db --db NEW.db [--set evaluation.FIELD=VALUE ...]
   report RUN.db --out DIR
   config show [--config FILE] [--set key=value ...]
 
@@ -20,6 +21,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.scene.generators import GenerationError
@@ -94,7 +96,6 @@ def _cmd_scene_show(args) -> int:
 def _cmd_evaluate(args) -> int:
     import dataclasses
     import json
-    from pathlib import Path
 
     from drake_clutter.evaluation.judge import (
         check_plan,
@@ -138,7 +139,6 @@ def _cmd_evaluate(args) -> int:
 
 def _cmd_plan(args) -> int:
     import dataclasses
-    from pathlib import Path
 
     from drake_clutter.common.typed_yaml import to_data
     from drake_clutter.planners.registry import (
@@ -170,6 +170,20 @@ def _cmd_plan(args) -> int:
         print(get_planner(name).table(plans[name]))
     ok = sum(c.ok for c in candidates)
     print(f"{ok} of {len(candidates)} angles ok ({scene.name}, {args.planner}); wrote {args.out}")
+    return 0
+
+
+def _cmd_experiment_rejudge(args) -> int:
+    from drake_clutter.experiments.executors import format_summary
+    from drake_clutter.experiments.rejudge import rejudge
+
+    if args.workers < 1:
+        raise InputError("<command line>", "--workers", f"must be at least 1, got {args.workers}")
+    if Path(args.db).resolve() == Path(args.source).resolve():
+        raise InputError("<command line>", "--db", "must be another store than the source")
+    summary = rejudge(args.source, args.db, args.overrides, args.workers,
+                      progress=not args.no_progress)
+    print(format_summary(summary))
     return 0
 
 
@@ -280,6 +294,16 @@ def build_parser() -> argparse.ArgumentParser:
                      help="run again the units whose planner raised or whose worker died")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     run.set_defaults(func=_cmd_experiment_run)
+    rej = exp_cmds.add_parser("rejudge", help="replay a store's plans under changed judge "
+                              "settings into another store (no planning)")
+    rej.add_argument("source", help="the store whose plans to judge again")
+    rej.add_argument("--db", required=True, help="SQLite store to fill (created if absent)")
+    rej.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    rej.add_argument("--set", dest="overrides", action="append", default=[],
+                     metavar="KEY=VALUE", help="a judge setting (evaluation.*), e.g. "
+                     "evaluation.robust_replays=8")
+    rej.add_argument("--no-progress", action="store_true", help="no progress bar")
+    rej.set_defaults(func=_cmd_experiment_rejudge)
     rep = groups.add_parser("report", help="Tables III/IV and Fig. 9 from a store")
     rep.add_argument("db", help="an experiment store (SQLite)")
     rep.add_argument("--out", required=True, help="directory for the Markdown, CSV and PNGs")

@@ -526,19 +526,26 @@ def load_config(path: str | Path | None = None, overrides: list[str] | tuple = (
 
     Raises ConfigError naming the file (or '<command line>'), the field and the reason.
     """
+    user = None if path is None else read_yaml_file(path, error_cls=ConfigError)
+    return config_from_data(user, overrides, path)
+
+
+def config_from_data(user, overrides: list[str] | tuple = (),
+                     file: str | Path | None = None) -> Config:
+    """Defaults, then ``user`` (plain nested data, any subset of the fields, e.g. a stored
+    configuration written before a field existed), then ``key=value`` overrides."""
     data = config_to_data(Config())
-    if path is not None:
-        user = read_yaml_file(path, error_cls=ConfigError)
-        if user is not None:
-            if not isinstance(user, dict):
-                raise ConfigError(path, "", "a configuration must be a YAML mapping")
-            data = _merge(data, user, path)
+    if user is not None:
+        if not isinstance(user, dict):
+            raise ConfigError(file or "<configuration>", "",
+                              "a configuration must be a YAML mapping")
+        data = _merge(data, user, file or "<configuration>")
     for item in overrides:
         key, sep, value = item.partition("=")
         if not sep:
             raise ConfigError("<command line>", item, "expected key=value")
         data = apply_override(data, key.strip(), value, error_cls=ConfigError)
-    return from_data(Config, data, file=path or "<command line>", error_cls=ConfigError)
+    return from_data(Config, data, file=file or "<command line>", error_cls=ConfigError)
 
 
 def _merge(base: dict, user: dict, file, prefix: str = "") -> dict:

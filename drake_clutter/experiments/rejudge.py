@@ -1,0 +1,129 @@
+"""Re-judging a store's plans: the same plans, a changed judge.
+
+No planner reads the ``evaluation`` settings, so a stored plan is the plan its unit would make
+again under any judge. `rejudge` replays every stored plan of a store under its stored
+configuration with ``evaluation.*`` overrides (the robust judge, a finer Bullet step) and writes
+each as a row of another store, under the changed configuration's hash and the same
+configuration name, with the source row's planning timings and its own evaluation time.
+Rows without a trajectory (the planner found none) are carried over with the new hash as they
+are; so are failed rows (an exception, a dead worker), which keep their error. Like an
+experiment run, it is resumable: a row already in the destination is skipped.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from collections.abc import Sequence
+
+from drake_clutter.common.config import Config, ConfigError, config_from_data, config_to_data
+from drake_clutter.common.typed_yaml import from_data
+
+JUDGE_SECTIONS = ("evaluation", "report", "viz")  # settings no planner reads
+
+
+def check_overrides(overrides: Sequence[str], file: str = "<command line>") -> None:
+    """Raises ConfigError for an override that is not ``section.field=value`` of a section no
+    planner reads (JUDGE_SECTIONS): any other would need the plans made again."""
+    for item in overrides:
+        key, sep, _ = item.partition("=")
+        section = key.strip().split(".")[0]
+        if not sep or section not in JUDGE_SECTIONS:
+            raise ConfigError(file, key.strip() or item, "re-judging changes only the judge's "
+                              f"settings ({', '.join(JUDGE_SECTIONS)}): the plans are stored")
+
+
+def changed_config(data: dict, overrides: Sequence[str]) -> Config:
+    """A stored configuration (`config_to_data`'s data; fields added since it was stored take
+    their defaults) with ``overrides`` applied."""
+    return config_from_data(data, overrides)
+
+
+def rejudge_unit(task: dict) -> dict:
+    """Replays one stored row's plan under ``task["config"]`` (data); the result as
+    `specs.run_unit` returns it, or the row's own result when it has no trajectory."""
+    from drake_clutter.evaluation.judge import evaluate_candidates
+    from drake_clutter.evaluation.outcome import Outcome
+    from drake_clutter.experiments.specs import DEAD_WORKER, stored_scene
+    from drake_clutter.trajectory import Candidate
+
+    row = task["row"]
+    carried = {"alpha": row["alpha"], "plan": row["plan"], "outcome": row["outcome"],
+               "timings": row["timings"], "error": row["error"]}
+    if row["error"] or not (row["plan"] or {}).get("trajectory"):
+        return carried
+    try:
+        config = from_data(Config, task["config"], file="<stored configuration>")
+        scene = stored_scene(row["scene"], config)
+        tic = time.perf_counter()
+        outcome = evaluate_candidates(scene, [Candidate.from_data(row["plan"])],
+                                      config.evaluation)[0]
+        seconds = time.perf_counter() - tic
+    except Exception as exc:  # a failure to replay is a recorded row, not a crash
+        data = Outcome(DEAD_WORKER, f"exception: {exc!r}").to_data()
+        data.pop("wall_time", None)
+        return {**carried, "outcome": data,
+                "error": "".join(traceback.format_exception(exc))[-4000:]}
+    data = outcome.to_data()
+    data.pop("wall_time", None)
+    timings = {**(row["timings"] or {}), "eval": seconds, "eval_wall": outcome.wall_time}
+    return {**carried, "outcome": data, "timings": timings}
+
+
+def rejudge(source: str, destination: str, overrides: Sequence[str], workers: int = 1,
+            progress: bool = True) -> dict:
+    """Re-judges every row of the store ``source`` into ``destination`` (module docstring);
+    returns the summary `executors.format_summary` prints."""
+    from tqdm import tqdm
+
+    from drake_clutter.experiments.executors import run_local
+    from drake_clutter.experiments.specs import config_hash
+    from drake_clutter.experiments.store import Store, StoreError
+
+    check_overrides(overrides)
+    started = time.perf_counter()
+    with Store(source, create=False) as store:
+        rows, configurations = store.rows(), store.configurations()
+    tasks, hashes = [], {}
+    for row in rows:
+        if row["config_hash"] not in hashes:
+            stored = configurations.get(row["config_hash"])
+            if stored is None:
+                raise StoreError(source, "configurations", f"no configuration stored for "
+                                 f"hash {row['config_hash']} (row of {row['scene']})")
+            config = changed_config(stored["config"], overrides)
+            hashes[row["config_hash"]] = (config_hash(config), config, stored)
+        new_hash, config, _ = hashes[row["config_hash"]]
+        unit = {"scene": row["scene"], "planner": row["planner"], "angle": row["angle"],
+                "config_hash": new_hash, "config_name": row["config_name"], "kind": row["env"],
+                "num_objects": row["num_objects"]}
+        tasks.append({**unit, "row": row, "config": config_to_data(config)})
+    counts: dict[str, int] = {}
+    by_planner: dict[str, dict[str, int]] = {}
+    with Store(destination) as out:
+        for new_hash, config, stored in hashes.values():
+            out.add_configuration(new_hash, stored["name"],
+                                  list(stored["overrides"]) + list(overrides),
+                                  config_to_data(config))
+        done = out.done_keys()
+        todo = [t for t in tasks if (t["scene"], t["planner"], t["angle"], t["config_hash"])
+                not in done]
+        bar = tqdm(total=len(todo), desc="rejudge", unit="plan", disable=not progress,
+                   dynamic_ncols=True)
+
+        def on_result(unit: dict, result: dict) -> None:
+            out.put(unit, result)
+            key = "error" if result["error"] else result["outcome"]["kind"]
+            counts[key] = counts.get(key, 0) + 1
+            mine = by_planner.setdefault(unit["planner"], {})
+            mine[key] = mine.get(key, 0) + 1
+            bar.update(1)
+
+        try:
+            run_local(todo, on_result, workers, work=rejudge_unit)
+        finally:
+            bar.close()
+    return {"spec": f"rejudge of {source}", "units": len(tasks),
+            "skipped": len(tasks) - len(todo), "ran": sum(counts.values()), "counts": counts,
+            "by_planner": by_planner, "elapsed": time.perf_counter() - started,
+            "executor": "local"}

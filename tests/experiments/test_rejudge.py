@@ -1,0 +1,62 @@
+"""Re-judging a store's plans under changed judge settings: same plans, new rows, no planning."""
+
+from __future__ import annotations
+
+import pytest
+
+from drake_clutter.common.config import ConfigError
+from drake_clutter.experiments.executors import run_experiment
+from drake_clutter.experiments.rejudge import rejudge
+from drake_clutter.experiments.specs import load_spec
+from drake_clutter.experiments.store import Store
+
+TINY = """
+name: tiny
+planners: [baseline]
+generated:
+  - {kind: bookshelf, levels: [1], seeds: [2015]}
+angles: [4, 9]
+overrides: [dynamics.workers=0]
+"""
+
+
+@pytest.fixture(scope="module")
+def source(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("rejudge")
+    spec_file = folder / "tiny.yaml"
+    spec_file.write_text(TINY, encoding="utf-8")
+    spec, path = load_spec(str(spec_file))
+    db = folder / "source.db"
+    run_experiment(spec, path, db, workers=1, progress=False)
+    return db
+
+
+def test_rejudged_rows_keep_the_plans_and_gain_the_robust_judge(source, tmp_path):
+    out = tmp_path / "robust.db"
+    summary = rejudge(str(source), str(out), ["evaluation.robust_replays=3"], workers=1,
+                      progress=False)
+    assert summary["ran"] == 2 and summary["skipped"] == 0
+    with Store(source, create=False) as store:
+        before = {(r["scene"], r["angle"]): r for r in store.rows()}
+    with Store(out, create=False) as store:
+        after = {(r["scene"], r["angle"]): r for r in store.rows()}
+        configs = store.configurations()
+    assert set(after) == set(before)
+    for key, row in after.items():
+        old = before[key]
+        assert row["plan"] == old["plan"] and row["kind"] == old["kind"]  # the nominal replay
+        assert row["config_name"] == old["config_name"]
+        assert row["config_hash"] != old["config_hash"]
+        assert row["robust_replays"] == 3 and 0.0 <= row["p_success"] <= 1.0
+        assert row["timings"]["plan"] == old["timings"]["plan"]
+        assert configs[row["config_hash"]]["config"]["evaluation"]["robust_replays"] == 3
+    again = rejudge(str(source), str(out), ["evaluation.robust_replays=3"], workers=1,
+                    progress=False)
+    assert again["ran"] == 0 and again["skipped"] == 2  # resumable
+
+
+def test_only_judge_settings_can_change(source, tmp_path):
+    with pytest.raises(ConfigError) as err:
+        rejudge(str(source), str(tmp_path / "x.db"), ["physics.iterations=3"], progress=False)
+    assert err.value.field == "physics.iterations"
+    assert not (tmp_path / "x.db").exists()

@@ -3,7 +3,7 @@
 solver iterations, and against its kinematic-failure thresholds.
 
     python benchmarks/judge_convergence.py --db RUN.db [--db RUN2.db ...] [--rates 240 480 960]
-        [--iterations 10 50 150] [--thresholds RATE ITERATIONS] [--workers 2]
+        [--iterations 10 50 150] [--thresholds RATE ITERATIONS | --no-thresholds] [--workers 2]
         [--out results.json] [--set FIELD=VALUE ...]
     python benchmarks/judge_convergence.py --from results.json   # print again, no replays
 
@@ -67,6 +67,8 @@ def settings(args) -> list[dict]:
     """The grid's evaluation overrides, cheapest first; the finest is the last."""
     grid = [{"label": f"{rate} Hz, {it} it", "rate": rate, "iterations": it}
             for rate in sorted(args.rates) for it in sorted(args.iterations)]
+    if args.no_thresholds:
+        return grid
     if args.thresholds:
         rate, it = args.thresholds
     else:
@@ -137,6 +139,8 @@ def report(results: dict) -> None:
     print(f"\nclass moves from {grid[first]['label']} to {grid[finest]['label']}:")
     for (a, b), count in moves.most_common():
         print(f"  {a} -> {b}: {count}")
+    if len(sweep) == len(grid):
+        return
     base = next((i for i in sweep if grid[i]["rate"] == grid[-1]["rate"]
                  and grid[i]["iterations"] == grid[-1]["iterations"]), finest)
     print(f"\nthresholds, each at half and one and a half times, at {grid[base]['label']}:")
@@ -160,6 +164,8 @@ def main(argv=None) -> int:
     parser.add_argument("--iterations", nargs="+", type=int, default=[10, 50, 150])
     parser.add_argument("--thresholds", nargs=2, type=int, metavar=("RATE", "ITERATIONS"),
                         help="the setting the thresholds are varied at (default: the finest)")
+    parser.add_argument("--no-thresholds", action="store_true",
+                        help="only the grid of rates and iterations")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--limit", type=int, help="only the first N plans")
     parser.add_argument("--out", help="write every verdict to this JSON file")

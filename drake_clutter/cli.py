@@ -182,7 +182,7 @@ def _cmd_experiment_rejudge(args) -> int:
     if Path(args.db).resolve() == Path(args.source).resolve():
         raise InputError("<command line>", "--db", "must be another store than the source")
     summary = rejudge(args.source, args.db, args.overrides, args.workers,
-                      progress=not args.no_progress)
+                      progress=not args.no_progress, current_judge=args.current_judge)
     print(format_summary(summary))
     return 0
 
@@ -302,6 +302,8 @@ def build_parser() -> argparse.ArgumentParser:
     rej.add_argument("--set", dest="overrides", action="append", default=[],
                      metavar="KEY=VALUE", help="a judge setting (evaluation.*), e.g. "
                      "evaluation.robust_replays=8")
+    rej.add_argument("--current-judge", action="store_true", help="start from today's "
+                     "evaluation defaults instead of the stored ones")
     rej.add_argument("--no-progress", action="store_true", help="no progress bar")
     rej.set_defaults(func=_cmd_experiment_rejudge)
     rep = groups.add_parser("report", help="Tables III/IV and Fig. 9 from a store")

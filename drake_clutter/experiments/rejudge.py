@@ -71,9 +71,11 @@ def rejudge_unit(task: dict) -> dict:
 
 
 def rejudge(source: str, destination: str, overrides: Sequence[str], workers: int = 1,
-            progress: bool = True) -> dict:
+            progress: bool = True, current_judge: bool = False) -> dict:
     """Re-judges every row of the store ``source`` into ``destination`` (module docstring);
-    returns the summary `executors.format_summary` prints."""
+    with ``current_judge`` the stored ``evaluation`` section is first replaced by today's
+    defaults (the judge's defaults changed since the store was written). Returns the summary
+    `executors.format_summary` prints."""
     from tqdm import tqdm
 
     from drake_clutter.experiments.executors import run_local
@@ -91,7 +93,10 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
             if stored is None:
                 raise StoreError(source, "configurations", f"no configuration stored for "
                                  f"hash {row['config_hash']} (row of {row['scene']})")
-            config = changed_config(stored["config"], overrides)
+            data = dict(stored["config"])
+            if current_judge:
+                data["evaluation"] = config_to_data(Config())["evaluation"]
+            config = changed_config(data, overrides)
             hashes[row["config_hash"]] = (config_hash(config), config, stored)
         new_hash, config, _ = hashes[row["config_hash"]]
         unit = {"scene": row["scene"], "planner": row["planner"], "angle": row["angle"],

@@ -23,10 +23,12 @@ from drake_clutter.experiments.specs import (
     expand,
     failure_result,
     load_spec,
+    resolve_config,
     run_unit,
     split_wall_times,
 )
 from drake_clutter.experiments.store import Store
+from drake_clutter.scene.generators import scene_set
 
 CRASH_SCENE = "crash_me"
 
@@ -60,6 +62,21 @@ def test_tiers_load_and_expand():
     assert counts["smoke"] == 4 * 2 * 2
     assert counts["smoke"] < counts["small"] < counts["paper"]
     assert counts["behaviours"] == 4 * 6 * 2 * 2  # scenes x angles x planners x configurations
+    assert counts["probe"] == 24 * 4 * 2  # scenes x angles x planners
+
+
+def test_probe_tier_draws_paper_scenes_at_four_levels_per_environment_robustly():
+    spec, path = load_spec("probe")
+    units = expand(spec, path)
+    paper = {s.name for s in scene_set("paper")}
+    assert {u.scene for u in units} <= paper
+    levels = {(u.kind, u.num_objects) for u in units}
+    assert len([k for k, _ in levels if k == "bookshelf"]) == 4
+    assert len([k for k, _ in levels if k == "fridge"]) == 4
+    config = resolve_config(spec, "defaults", path)
+    assert config.evaluation.robust_replays == 8
+    behaviours, bpath = load_spec("behaviours")
+    assert resolve_config(behaviours, "defaults", bpath).evaluation.robust_replays == 8
 
 
 def test_small_tier_covers_every_clutter_level():

@@ -161,8 +161,6 @@ def run_experiment(spec, spec_file: str, db_path, executor: str = "local", worke
     arrives, with a tqdm bar (ETA) on stderr. Returns the summary (see `format_summary`)."""
     import time
 
-    from tqdm import tqdm
-
     from drake_clutter.common.config import config_to_data
     from drake_clutter.experiments.specs import expand, resolve_config
     from drake_clutter.experiments.store import Store
@@ -178,32 +176,52 @@ def run_experiment(spec, spec_file: str, db_path, executor: str = "local", worke
         todo = [u.to_data() for u in units if u.key not in done]
         run_id = store.start_run(spec.name, spec_file, executor, workers, len(units),
                                  len(units) - len(todo))
-        counts: dict[str, int] = {}
-        by_planner: dict[str, dict[str, int]] = {}
-        bar = tqdm(total=len(todo), desc=spec.name, unit="unit", disable=not progress,
-                   dynamic_ncols=True)
-
-        def on_result(unit: dict, result: dict) -> None:
-            store.put(unit, result)
-            key = "error" if result["error"] else result["outcome"]["kind"]
-            counts[key] = counts.get(key, 0) + 1
-            mine = by_planner.setdefault(unit["planner"], {})
-            mine[key] = mine.get(key, 0) + 1
-            bar.set_postfix_str(" ".join(f"{k}={v}" for k, v in sorted(counts.items())),
-                                refresh=False)
-            bar.update(1)
-
+        writer = StoreWriter(store, len(todo), spec.name, progress)
         try:
             if executor == "ray":
-                run_ray(todo, on_result, workers, address, spec.ray_max_retries, work=work)
+                run_ray(todo, writer, workers, address, spec.ray_max_retries, work=work)
             else:
-                run_local(todo, on_result, workers, work=work)
+                run_local(todo, writer, workers, work=work)
         finally:
-            bar.close()
+            writer.close()
         store.finish_run(run_id)
-    return {"spec": spec.name, "units": len(units), "skipped": len(units) - len(todo),
-            "ran": sum(counts.values()), "counts": counts, "by_planner": by_planner,
-            "elapsed": time.perf_counter() - started, "executor": executor}
+    return writer.summary(spec.name, len(units), len(units) - len(todo),
+                          time.perf_counter() - started, executor)
+
+
+class StoreWriter:
+    """The ``on_result`` of a run: commits each arriving result to the store and counts the
+    outcome kinds (errors apart), overall and per planner, with a tqdm bar (ETA) on stderr."""
+
+    def __init__(self, store, total: int, name: str, progress: bool):
+        from tqdm import tqdm
+
+        self.store = store
+        self.counts: dict[str, int] = {}
+        self.by_planner: dict[str, dict[str, int]] = {}
+        self.bar = tqdm(total=total, desc=name, unit="unit", disable=not progress,
+                        dynamic_ncols=True)
+
+    def __call__(self, unit: dict, result: dict) -> None:
+        self.store.put(unit, result)
+        key = "error" if result["error"] else result["outcome"]["kind"]
+        self.counts[key] = self.counts.get(key, 0) + 1
+        mine = self.by_planner.setdefault(unit["planner"], {})
+        mine[key] = mine.get(key, 0) + 1
+        self.bar.set_postfix_str(" ".join(f"{k}={v}" for k, v in sorted(self.counts.items())),
+                                 refresh=False)
+        self.bar.update(1)
+
+    def close(self) -> None:
+        """Closes the progress bar."""
+        self.bar.close()
+
+    def summary(self, name: str, units: int, skipped: int, elapsed: float,
+                executor: str) -> dict:
+        """The run's summary (see `format_summary`); ``elapsed`` in s."""
+        return {"spec": name, "units": units, "skipped": skipped,
+                "ran": sum(self.counts.values()), "counts": self.counts,
+                "by_planner": self.by_planner, "elapsed": elapsed, "executor": executor}
 
 
 def format_summary(summary: dict) -> str:

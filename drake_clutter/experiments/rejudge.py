@@ -76,9 +76,7 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
     with ``current_judge`` the stored ``evaluation`` section is first replaced by today's
     defaults (the judge's defaults changed since the store was written). Returns the summary
     `executors.format_summary` prints."""
-    from tqdm import tqdm
-
-    from drake_clutter.experiments.executors import run_local
+    from drake_clutter.experiments.executors import StoreWriter, run_local
     from drake_clutter.experiments.specs import config_hash
     from drake_clutter.experiments.store import Store, StoreError
 
@@ -103,8 +101,6 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
                 "config_hash": new_hash, "config_name": row["config_name"], "kind": row["env"],
                 "num_objects": row["num_objects"]}
         tasks.append({**unit, "row": row, "config": config_to_data(config)})
-    counts: dict[str, int] = {}
-    by_planner: dict[str, dict[str, int]] = {}
     with Store(destination) as out:
         for new_hash, config, stored in hashes.values():
             out.add_configuration(new_hash, stored["name"],
@@ -113,22 +109,10 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
         done = out.done_keys()
         todo = [t for t in tasks if (t["scene"], t["planner"], t["angle"], t["config_hash"])
                 not in done]
-        bar = tqdm(total=len(todo), desc="rejudge", unit="plan", disable=not progress,
-                   dynamic_ncols=True)
-
-        def on_result(unit: dict, result: dict) -> None:
-            out.put(unit, result)
-            key = "error" if result["error"] else result["outcome"]["kind"]
-            counts[key] = counts.get(key, 0) + 1
-            mine = by_planner.setdefault(unit["planner"], {})
-            mine[key] = mine.get(key, 0) + 1
-            bar.update(1)
-
+        writer = StoreWriter(out, len(todo), "rejudge", progress)
         try:
-            run_local(todo, on_result, workers, work=rejudge_unit)
+            run_local(todo, writer, workers, work=rejudge_unit)
         finally:
-            bar.close()
-    return {"spec": f"rejudge of {source}", "units": len(tasks),
-            "skipped": len(tasks) - len(todo), "ran": sum(counts.values()), "counts": counts,
-            "by_planner": by_planner, "elapsed": time.perf_counter() - started,
-            "executor": "local"}
+            writer.close()
+    return writer.summary(f"rejudge of {source}", len(tasks), len(tasks) - len(todo),
+                          time.perf_counter() - started, "local")

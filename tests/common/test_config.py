@@ -128,6 +128,6 @@ def test_the_comment_rule_catches_a_trailing_comment_and_an_issue_number():
     trailing = source.replace("time_step: float = 0.01\n", "time_step: float = 0.01  # s\n", 1)
     assert trailing != source
     assert any("own line" in p for p in _comment_rule_violations(trailing))
-    cited = source.replace("# phi's SAP time step, s; ours", "# phi's SAP time step (issue 3)", 1)
+    cited = source.replace("# phi's SAP time step, s; ours", "# phi's SAP time step (issue #3)", 1)
     assert cited != source
     assert any("issue" in p for p in _comment_rule_violations(cited))

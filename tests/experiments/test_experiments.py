@@ -29,6 +29,7 @@ from drake_clutter.experiments.specs import (
 )
 from drake_clutter.experiments.store import Store
 from drake_clutter.scene.generators import scene_set
+from drake_clutter.testing.specs import TINY_SPEC
 
 CRASH_SCENE = "crash_me"
 
@@ -39,14 +40,7 @@ def _write(tmp_path, text: str, name: str = "spec.yaml"):
     return path
 
 
-TINY = """
-name: tiny
-planners: [baseline]
-generated:
-  - {kind: bookshelf, levels: [1], seeds: [2015]}
-angles: [4, 9]
-overrides: [dynamics.workers=0]
-"""
+TINY = TINY_SPEC
 
 
 def test_tiers_load_and_expand():

@@ -9,15 +9,9 @@ from drake_clutter.experiments.executors import run_experiment
 from drake_clutter.experiments.rejudge import rejudge
 from drake_clutter.experiments.specs import load_spec
 from drake_clutter.experiments.store import Store
+from drake_clutter.testing.specs import TINY_SPEC
 
-TINY = """
-name: tiny
-planners: [baseline]
-generated:
-  - {kind: bookshelf, levels: [1], seeds: [2015]}
-angles: [4, 9]
-overrides: [dynamics.workers=0]
-"""
+TINY = TINY_SPEC
 
 
 @pytest.fixture(scope="module")

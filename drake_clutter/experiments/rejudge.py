@@ -95,17 +95,16 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
             if current_judge:
                 data["evaluation"] = config_to_data(Config())["evaluation"]
             config = changed_config(data, overrides)
-            hashes[row["config_hash"]] = (config_hash(config), config, stored)
-        new_hash, config, _ = hashes[row["config_hash"]]
+            hashes[row["config_hash"]] = (config_hash(config), config_to_data(config), stored)
+        new_hash, config_data, _ = hashes[row["config_hash"]]
         unit = {"scene": row["scene"], "planner": row["planner"], "angle": row["angle"],
                 "config_hash": new_hash, "config_name": row["config_name"], "kind": row["env"],
                 "num_objects": row["num_objects"]}
-        tasks.append({**unit, "row": row, "config": config_to_data(config)})
+        tasks.append({**unit, "row": row, "config": config_data})
     with Store(destination) as out:
-        for new_hash, config, stored in hashes.values():
+        for new_hash, config_data, stored in hashes.values():
             out.add_configuration(new_hash, stored["name"],
-                                  list(stored["overrides"]) + list(overrides),
-                                  config_to_data(config))
+                                  list(stored["overrides"]) + list(overrides), config_data)
         done = out.done_keys()
         todo = [t for t in tasks if (t["scene"], t["planner"], t["angle"], t["config_hash"])
                 not in done]

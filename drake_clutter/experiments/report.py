@@ -159,10 +159,16 @@ def table_iv(rows: list[dict]) -> list[dict]:
     return out
 
 
+def _robust(row: dict) -> dict | None:
+    """The robust judge's summary data of a stored row (`robust.RobustSummary.to_data`), or
+    None for a row judged once."""
+    return (row.get("outcome") or {}).get("robust")
+
+
 def row_p_success(row: dict, partial: bool = False) -> float:
     """A stored row's P(success) (or P(success or partial success)): the robust judge's over
     its K replays, else 1 or 0 by its one (nominal) outcome."""
-    robust = (row.get("outcome") or {}).get("robust")
+    robust = _robust(row)
     if robust:
         return float(robust["p_success_or_partial" if partial else "p_success"])
     return float(row["kind"] in (("success", "partial_success") if partial else ("success",)))
@@ -171,7 +177,7 @@ def row_p_success(row: dict, partial: bool = False) -> float:
 def row_expected_grade(row: dict) -> float:
     """A stored row's expected grade class (0 success .. 4 no plan): the robust judge's mean
     over its K replays, else its one outcome's class."""
-    robust = (row.get("outcome") or {}).get("robust")
+    robust = _robust(row)
     if robust:
         return float(robust["expected_grade"])
     return float(GRADE_CLASSES[row["kind"]])
@@ -179,7 +185,7 @@ def row_expected_grade(row: dict) -> float:
 
 def row_kinds(row: dict) -> list[str]:
     """The classes of a stored row's replays: the robust judge's K, else its one kind."""
-    robust = (row.get("outcome") or {}).get("robust")
+    robust = _robust(row)
     return list(robust["kinds"]) if robust else [row["kind"]]
 
 

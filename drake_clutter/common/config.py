@@ -402,6 +402,8 @@ class PhysicsConfig:
     grasp_smoothing: float = 0.005
     # Hessian of the phi stages' c_grasp and c_upright ("gauss_newton", "majorizer"), choice; ours
     distance_curvature: Literal["gauss_newton", "majorizer"] = "majorizer"
+    # Hessian of c_upright ("tilt": J'J/s of z's horizontal part; "angle": as c_grasp), choice; ours
+    upright_curvature: Literal["tilt", "angle"] = "tilt"
     # last knots (Delta included) held on the straight approach (0 = off), count; ours
     approach_knots: int = 0
     # weight of c_approach = 1/2 offset^2 (m^2; 1 cm costs 5), unitless; ours
@@ -420,6 +422,14 @@ class PhysicsConfig:
     pre_terminal_weight: float = 100.0
     # w_vel of the pre-processing's c_vel (None: the baseline's), unitless; Sec. V-A
     pre_w_vel: float | None = None
+    # the pre-processing keeps the baseline's last knot and gripper openings (bounds), flag; ours
+    pre_keep_pregrasp: bool = True
+    # the post-processing keeps its reference's last knot and gripper openings (bounds), flag; ours
+    post_keep_end: bool = True
+    # the phi stages' last knot opens the gripper at least as wide as the baseline's, flag; ours
+    keep_open: bool = True
+    # the plan is the best in one phi of the baseline, pre- and post-processed paths, flag; ours
+    select_in_phi: bool = True
     # iLQR iterations of the Sec. V-B post-processing, count; ours
     post_iterations: int = 40
     # largest arm-point travel between swept-cost samples (0: fixed counts alone), m; ours
@@ -442,6 +452,8 @@ class PhysicsConfig:
     max_failed_searches: int = 1
     # cap on the spectral radius of phi's box-to-box Jacobian per knot, unitless; ours
     max_spectral_radius: float = 1.0
+    # rows the cap scales ("box": each unstable box's own first; "block": every box's), choice; ours
+    spectral_cap_scope: Literal["box", "block"] = "box"
     # phi stages retry a failed line search open loop (K = 0), flag; ours
     open_loop_fallback: bool = False
     # phi stages' forward passes feed back K (x - x_bar), flag; ours

@@ -481,6 +481,50 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
     return "\n".join(lines)
 
 
+PHI_STAGES = ("sphere", "full")  # the physics plan's stages through phi (its details' names)
+SELECTIONS = ("post", "pre", "baseline")  # the paths the physics planner chooses among
+
+
+def stage_statistics(rows: list[dict]) -> list[dict]:
+    """Per configuration and phi stage of the physics rows' plans: the stages run, those that
+    accepted at least one iLQR iteration (count and %), the accepted steps and the quartiles of
+    their actual / predicted decrease (the model's at the accepted step size), and how often
+    each path was the plan (`SELECTIONS`; stages without a choice are not counted)."""
+    out = []
+    for (config_name, planner), group in groups(rows).items():
+        if planner != "physics":
+            continue
+        details = [r["plan"].get("details", {}) for r in group if r.get("plan")]
+        chosen = [d.get("select", {}).get("chosen") for d in details]
+        for stage in PHI_STAGES:
+            records = [d["stages"][stage] for d in details if stage in d.get("stages", {})]
+            ratios = [e["actual"] / e["predicted"] for rec in records for e in rec["log"]
+                      if e.get("alpha", 0.0) > 0 and e.get("predicted", 0.0) > 0]
+            accepting = sum(rec["iterations"] > 0 for rec in records)
+            q = (np.percentile(ratios, [25, 50, 75]) if ratios else [None] * 3)
+            out.append({"configuration": config_name, "stage": stage, "stages": len(records),
+                        "accepting": accepting, "accepting_pct": _pct(accepting, len(records)),
+                        "accepted_steps": len(ratios), "ratio_q25": q[0], "ratio_median": q[1],
+                        "ratio_q75": q[2],
+                        **{f"chosen_{n}": chosen.count(n) for n in SELECTIONS}})
+    return out
+
+
+def markdown_stages(table: list[dict]) -> str:
+    """`stage_statistics` as Markdown."""
+    lines = ["| configuration | stage | stages | accepting >= 1 iteration | accepted steps | "
+             "actual / predicted: median [quartiles] | plan chosen: post / pre / baseline |",
+             "|---|---|---:|---:|---:|---:|---:|"]
+    for r in table:
+        ratio = ("-" if r["ratio_median"] is None else f"{r['ratio_median']:.2f} "
+                 f"[{r['ratio_q25']:.2f}, {r['ratio_q75']:.2f}]")
+        lines.append(f"| {r['configuration']} | {r['stage']} | {r['stages']} | "
+                     f"{r['accepting']} ({_fmt(r['accepting_pct'])}) | {r['accepted_steps']} | "
+                     f"{ratio} | {r['chosen_post']} / {r['chosen_pre']} / "
+                     f"{r['chosen_baseline']} |")
+    return "\n".join(lines)
+
+
 def _write_csv(path: Path, table: list[dict]) -> None:
     with path.open("w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(table[0]) if table else ["empty"])
@@ -491,9 +535,9 @@ def _write_csv(path: Path, table: list[dict]) -> None:
 def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
                  config: ReportConfig | None = None) -> dict[str, Path]:
     """Writes report.md, table3.{md,csv}, table4.{md,csv}, fig9.csv, fig9a/b/c.png, fig9.png
-    (the three panels together) and paired.csv (physics against the baseline per
-    initialization) into ``out_dir`` (created); returns the paths by name. ``config``: the
-    paired comparison's bootstrap settings."""
+    (the three panels together), paired.csv (physics against the baseline per
+    initialization) and stages.csv (`stage_statistics`) into ``out_dir`` (created); returns
+    the paths by name. ``config``: the paired comparison's bootstrap settings."""
     config = config or ReportConfig()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -501,7 +545,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     paths = {"table3.md": out / "table3.md", "table4.md": out / "table4.md",
              "table3.csv": out / "table3.csv", "table4.csv": out / "table4.csv",
              "fig9.csv": out / "fig9.csv", "paired.csv": out / "paired.csv",
-             "report.md": out / "report.md"}
+             "stages.csv": out / "stages.csv", "report.md": out / "report.md"}
     md3, md4 = markdown_table_iii(t3), markdown_table_iv(t4)
     paths["table3.md"].write_text(md3 + "\n", encoding="utf-8")
     paths["table4.md"].write_text(md4 + "\n", encoding="utf-8")
@@ -509,6 +553,8 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     _write_csv(paths["table4.csv"], t4)
     _write_csv(paths["fig9.csv"], f9)
     _write_csv(paths["paired.csv"], paired_rows(rows))
+    stages = stage_statistics(rows)
+    _write_csv(paths["stages.csv"], stages)
     paths["fig9a.png"] = plot_success(f9, "bookshelf", out / "fig9a.png")
     paths["fig9b.png"] = plot_success(f9, "fridge", out / "fig9b.png")
     paths["fig9c.png"] = plot_time(f9, out / "fig9c.png")
@@ -531,7 +577,13 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "paired.csv. The differences are per initialization, physics minus baseline: "
             "P(success) (the robust judge's over its replays, else 1 or 0) and the expected "
             "grade class (lower is better), with a seeded percentile bootstrap interval.", "",
-            markdown_paired(paired_comparison(rows, config), config), ""]
+            markdown_paired(paired_comparison(rows, config), config), "",
+            "## The physics planner's phi stages (Sec. V)", "",
+            "Per phi stage: how many accepted at least one iLQR iteration, and for the accepted "
+            "steps the actual decrease of phi's objective over the quadratic model's at the "
+            "accepted step size (1: the model was right; the trust region clips steps after the "
+            "model). The plan is the best in phi of the post-processed, pre-processed and "
+            "baseline paths. Per stage: stages.csv.", "", markdown_stages(stages), ""]
     paths["report.md"].write_text("\n".join(text), encoding="utf-8")
     return paths
 

@@ -69,8 +69,9 @@ def swept_samples(arm_path: np.ndarray, samples_per_knot: int) -> np.ndarray:
 
 def prune(scene: Scene, arm_path: np.ndarray, box_states: dict[str, np.ndarray] | None = None,
           config: DynamicsConfig | None = None, world_config: WorldConfig | None = None,
-          variant: str = "capsules") -> PruneReport:
-    """The boxes a trajectory (knot rows of TRAJECTORY_JOINTS) can affect, see the module doc.
+          variant: str = "capsules", other_paths: tuple[np.ndarray, ...] = ()) -> PruneReport:
+    """The boxes a trajectory (knot rows of TRAJECTORY_JOINTS) can affect, see the module doc;
+    with ``other_paths`` (more such trajectories), those any of them can affect.
 
     ``box_states``: name -> 13-number state (default: every box resting at its scene pose).
     """
@@ -85,7 +86,9 @@ def prune(scene: Scene, arm_path: np.ndarray, box_states: dict[str, np.ndarray] 
                                     box_state_to_pose(states[box.name]))
     owner = _geometry_owners(world)
     near_arm: set[str] = set()
-    for q in robot_positions(swept_samples(arm_path, config.prune_samples_per_knot)):
+    samples = np.vstack([swept_samples(path, config.prune_samples_per_knot)
+                         for path in (arm_path, *other_paths)])
+    for q in robot_positions(samples):
         world.set_robot_positions(context, q)
         for a, b in _close_pairs(world, context, owner, config.prune_margin):
             if "arm" in (a, b):
@@ -144,22 +147,25 @@ def make_pruned_spec(scene: Scene, arm_path: np.ndarray,
                      box_states: dict[str, np.ndarray] | None = None, knot_time: float = 0.2,
                      config: DynamicsConfig | None = None,
                      world_config: WorldConfig | None = None,
-                     variant: str = "capsules") -> tuple[PhiSpec, PruneReport]:
+                     variant: str = "capsules", other_paths: tuple[np.ndarray, ...] = ()
+                     ) -> tuple[PhiSpec, PruneReport]:
     """The phi of a candidate trajectory (knot rows of TRAJECTORY_JOINTS, the first being the
     start), pruned against the current ``box_states``, then checked by rolling the path out:
     frozen boxes that a kept box or the arm reached become dynamic, up to ``prune_rounds``
-    rollouts (``PruneReport.rounds``/``added`` say what happened); none when no box is frozen
-    (every box kept: there is nothing for a rollout to find)."""
+    rounds (``PruneReport.rounds``/``added`` say what happened); none when no box is frozen
+    (every box kept: there is nothing for a rollout to find). ``other_paths`` (same start):
+    one phi for all of them, pruned and checked against each, so they can be compared in it."""
     config = config or DynamicsConfig()
     world_config = world_config or WorldConfig()
     states = scene_box_states(scene) if box_states is None else box_states
-    report = prune(scene, arm_path, states, config, world_config, variant)
+    report = prune(scene, arm_path, states, config, world_config, variant, other_paths)
     kept, added, rounds = set(report.kept), set(), 0
     spec = make_spec(scene, _in_scene_order(scene, kept), states, knot_time, config,
                      world_config, variant)
     while rounds < config.prune_rounds and spec.frozen:
         rounds += 1
-        touched = rollout_touches_frozen(spec, arm_path, states)
+        touched = set().union(*(rollout_touches_frozen(spec, path, states)
+                                for path in (arm_path, *other_paths)))
         if not touched:
             break
         kept |= touched

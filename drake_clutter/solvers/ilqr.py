@@ -9,11 +9,12 @@ The solver sees two small protocols and nothing of Drake:
 
 ``xs`` has T + 1 rows (x_0 .. x_T) and ``us`` T rows (u_0 .. u_{T-1}).
 
-Controls may be box-bounded (``u_min``/``u_max``): the forward pass clamps every control into
-the box, and the backward pass holds the controls that sit on a bound in the nominal
-trajectory with their gradient pushing outwards (no step, no feedback) and solves the free
-controls' block of Q_uu alone, so the linear policy does not fight the clamp - the simple form
-of the control-limited iLQR of Tassa et al. (2014).
+Controls may be box-bounded (``u_min``/``u_max``: one bound per control, or one row per knot,
+(T, nu), to pin a knot's control where lower and upper bound meet): the forward pass clamps
+every control into the box, and the backward pass holds the controls that sit on a bound in
+the nominal trajectory with their gradient pushing outwards (no step, no feedback) and solves
+the free controls' block of Q_uu alone, so the linear policy does not fight the clamp - the
+simple form of the control-limited iLQR of Tassa et al. (2014).
 
 Manifold states: with ``difference(x_a, x_b) -> dx`` (x_a minus x_b in tangent coordinates,
 e.g. rotation vectors for quaternion states) the linearisation and the expansion live in the
@@ -99,8 +100,8 @@ class ILQRSettings:
     reg_max: float = 1e10
     reg_factor: float = 10.0
     line_search_steps: int = 10  # step sizes 1, 1/2, ..., 2^-9
-    u_min: tuple[float, ...] | None = None
-    u_max: tuple[float, ...] | None = None
+    u_min: tuple | np.ndarray | None = None  # (nu,) for every knot, or (T, nu) per knot
+    u_max: tuple | np.ndarray | None = None
     step_limit: tuple[float, ...] | None = None  # trust region: the largest change of each
     # control per knot in one forward pass (|u - u_bar| <= step_limit, feedback included)
     adaptive_step: bool = False  # start each line search at twice the last accepted step size
@@ -146,8 +147,9 @@ class ILQRResult:
     stop_reason: StopReason
     timings: dict[str, float] = field(default_factory=dict)  # s, summed over iterations
     log: list[dict] = field(default_factory=list)  # one entry per backward pass: regulariser
-    # mu, the model's predicted decrease at the full step, the accepted step size alpha (0:
-    # none), the actual decrease, whether the step was open loop, forward passes tried, and
+    # mu, the model's predicted decrease at the full step ("expected"), the accepted step
+    # size alpha (0: none), the actual decrease and the model's at alpha ("predicted", before
+    # any trust-region clip), whether the step was open loop, forward passes tried, and
     # the non-finite derivative entries zeroed; "passes": forward passes run (more than
     # "tries" when a parallel batch ran step sizes after the accepted one)
 
@@ -166,19 +168,26 @@ def rollout(dynamics: Dynamics, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
     return xs
 
 
-def _bounds(settings: ILQRSettings, nu: int) -> tuple[np.ndarray, np.ndarray]:
-    lo = np.full(nu, -np.inf) if settings.u_min is None else np.asarray(settings.u_min, float)
-    hi = np.full(nu, np.inf) if settings.u_max is None else np.asarray(settings.u_max, float)
-    if lo.shape != (nu,) or hi.shape != (nu,) or np.any(lo > hi):
-        raise ValueError("u_min/u_max must have one entry per control and u_min <= u_max")
+def _bounds(settings: ILQRSettings, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """The bounds as (T, nu) arrays (a (nu,) bound repeated at every knot)."""
+    lo = np.full(shape, -np.inf) if settings.u_min is None else np.asarray(settings.u_min, float)
+    hi = np.full(shape, np.inf) if settings.u_max is None else np.asarray(settings.u_max, float)
+    if lo.shape not in (shape, shape[1:]) or hi.shape not in (shape, shape[1:]):
+        raise ValueError("u_min/u_max must have one entry per control (or a row per knot)")
+    lo, hi = np.broadcast_to(lo, shape).copy(), np.broadcast_to(hi, shape).copy()
+    if np.any(lo > hi):
+        raise ValueError("u_min must not exceed u_max")
     return lo, hi
 
 
 def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
                   lo: np.ndarray | None = None, hi: np.ndarray | None = None):
     """Riccati-like recursion. Returns (k, K, expected decrease terms (d1, d2)) or None when
-    Q_uu + mu I is not positive definite at some knot."""
+    Q_uu + mu I is not positive definite at some knot. ``lo``/``hi``: (nu,) or (T, nu); a
+    control whose bounds meet is pinned (no step, no feedback)."""
     T, nu, nx = exp.lu.shape[0], exp.lu.shape[1], exp.lx.shape[1]
+    if us is not None:
+        lo, hi = np.broadcast_to(lo, (T, nu)), np.broadcast_to(hi, (T, nu))
     k, K = np.zeros((T, nu)), np.zeros((T, nu, nx))
     vx, vxx = exp.vx.copy(), exp.vxx.copy()
     d1 = d2 = 0.0
@@ -191,7 +200,8 @@ def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
         qux = exp.lux[t] + Bt.T @ vxx @ At
         free = np.ones(nu, dtype=bool)
         if us is not None:  # controls pinned on a bound with the gradient pushing outwards
-            free &= ~(((us[t] <= lo) & (qu > 0)) | ((us[t] >= hi) & (qu < 0)))
+            free &= ~(((us[t] <= lo[t]) & (qu > 0)) | ((us[t] >= hi[t]) & (qu < 0))
+                      | (lo[t] >= hi[t]))
         # Pinned controls stay put (k = 0, K = 0); the free ones solve their own block, so the
         # step is the minimiser of the model over the free controls (the predicted decrease is
         # then never negative; zeroing rows of the full solution could make it so).
@@ -238,8 +248,9 @@ def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, differe
                  limit: np.ndarray | None = None):
     """New (xs, us) from the policy u = clamp(u_bar + alpha k + K (x (-) x_bar)); ``difference``
     is the state difference (default: plain subtraction); ``limit`` (nu,) bounds each control's
-    change |u - u_bar| (None: unbounded)."""
+    change |u - u_bar| (None: unbounded); ``lo``/``hi`` (nu,) or (T, nu)."""
     difference = difference or _subtract
+    lo, hi = np.broadcast_to(lo, us.shape), np.broadcast_to(hi, us.shape)
     new_xs = np.empty_like(xs)
     new_us = np.empty_like(us)
     new_xs[0] = xs[0]
@@ -251,7 +262,7 @@ def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, differe
         du = alpha * k[t] + K[t] @ difference(new_xs[t], xs[t])
         if limit is not None:
             du = np.clip(du, -limit, limit)
-        new_us[t] = np.clip(us[t] + du, lo, hi)
+        new_us[t] = np.clip(us[t] + du, lo[t], hi[t])
         if not np.all(np.isfinite(new_us[t])):  # an overflowing policy: the step is rejected
             new_xs[t + 1:] = np.nan
             new_us[t:] = us[t:]
@@ -266,7 +277,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     ``difference`` as in the module docstring (None: plain vector states)."""
     settings = settings or ILQRSettings()
     us = np.array(us_init, dtype=float)
-    lo, hi = _bounds(settings, us.shape[1])
+    lo, hi = _bounds(settings, us.shape)
     limit = None if settings.step_limit is None else np.asarray(settings.step_limit, float)
     us = np.clip(us, lo, hi)
     if not np.all(np.isfinite(us)):
@@ -305,7 +316,8 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                 continue
             k, K, (d1, d2) = bp
             entry = {"mu": mu, "expected": -(d1 + d2), "alpha": 0.0, "actual": 0.0,
-                     "open_loop": False, "tries": 0, "passes": 0, "nonfinite": nonfinite}
+                     "predicted": 0.0, "open_loop": False, "tries": 0, "passes": 0,
+                     "nonfinite": nonfinite}
             log.append(entry)
             if -(d1 + d2) < settings.tolerance * max(abs(total), 1e-12):
                 break  # the model predicts no worthwhile decrease: a stationary point
@@ -315,6 +327,8 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
             tic = time.perf_counter()
             step = _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings,
                                 difference, limit, entry, alpha0)
+            if step is not None:  # the model's decrease at the accepted step size
+                entry["predicted"] = -(entry["alpha"] * d1 + entry["alpha"] ** 2 * d2)
             timings["forward"] += time.perf_counter() - tic
             if step is not None:
                 accepted = True

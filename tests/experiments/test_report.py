@@ -13,8 +13,10 @@ from drake_clutter.common.config import ReportConfig
 from drake_clutter.experiments.report import (
     PAPER_TABLE_III,
     bootstrap_interval,
+    markdown_stages,
     paired_comparison,
     paired_rows,
+    stage_statistics,
     table_iii,
     table_iv,
     write_report,
@@ -209,3 +211,33 @@ def test_a_report_setting_that_makes_no_sense_names_its_field(tmp_path, capsys):
                  "--set", "report.confidence=1.5"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "report.confidence" in err and not out.exists()
+
+
+def _stage(iterations, entries):
+    log = [{"alpha": a, "actual": act, "predicted": pred} for a, act, pred in entries]
+    return {"iterations": iterations, "log": log}
+
+
+def test_stage_statistics_count_accepting_stages_ratios_and_choices():
+    """Three physics plans: the sphere stage accepted steps in two (ratios 0.5, 1, 2 and 4),
+    the full stage in one (ratio 1; a failed search logs alpha 0 and is not a step); the plan
+    was the post-processed path twice and the baseline's once. Rows without details count as
+    stages not run."""
+    plans = [{"sphere": _stage(2, [(1.0, 1.0, 2.0), (0.5, 2.0, 2.0)]),
+              "full": _stage(0, [(0.0, 0.0, 0.0)]), "chosen": "post"},
+             {"sphere": _stage(2, [(1.0, 4.0, 2.0), (1.0, 4.0, 1.0)]),
+              "full": _stage(1, [(0.25, 3.0, 3.0), (0.0, 0.0, 0.0)]), "chosen": "baseline"},
+             {"sphere": _stage(0, []), "full": _stage(0, []), "chosen": "post"}]
+    rows = [{"config_name": "defaults", "planner": "physics",
+             "plan": {"details": {"stages": {"sphere": p["sphere"], "full": p["full"]},
+                                  "select": {"chosen": p["chosen"]}}}} for p in plans]
+    rows += [{"config_name": "defaults", "planner": "physics", "plan": {"status": "ok"}},
+             {"config_name": "defaults", "planner": "baseline", "plan": {"status": "ok"}}]
+    sphere, full = stage_statistics(rows)
+    assert (sphere["stage"], sphere["stages"], sphere["accepting"]) == ("sphere", 3, 2)
+    assert sphere["accepted_steps"] == 4 and sphere["ratio_median"] == pytest.approx(1.5)
+    assert (full["stages"], full["accepting"], full["accepted_steps"]) == (3, 1, 1)
+    assert full["ratio_median"] == 1.0 and full["accepting_pct"] == pytest.approx(100 / 3)
+    assert (sphere["chosen_post"], sphere["chosen_pre"], sphere["chosen_baseline"]) == (2, 0, 1)
+    text = markdown_stages([sphere, full])
+    assert "| defaults | sphere | 3 | 2 (66.7%) | 4 | 1.50 [0.88, 2.50] | 2 / 0 / 1 |" in text

@@ -232,6 +232,28 @@ def test_log_predicts_the_exact_decrease_on_lqr():
     assert first["alpha"] == 1.0 and first["tries"] == 1 and not first["open_loop"]
     assert first["actual"] == pytest.approx(first["expected"], rel=1e-9)
     assert first["actual"] == pytest.approx(result.cost_history[0] - result.cost_history[1])
+    assert first["predicted"] == pytest.approx(first["expected"], rel=1e-12)  # at alpha 1
+
+
+def test_log_predicts_the_decrease_at_the_accepted_step_size():
+    """When the full step fails (the dynamics refuse controls beyond 3/4 of the optimum's
+    largest, returning NaN) the line search accepts alpha 1/2, and the log's "predicted" is the
+    model's decrease at that alpha, equal to the actual one on an exact quadratic model."""
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=1)
+    largest = np.abs(_batch_lqr(A, B, Q, R, Qf, x0, T)).max()
+
+    class Refusing(LinearDynamics):
+        def step(self, t, x, u):
+            out = super().step(t, x, u)
+            return out * np.nan if np.abs(u).max() > 0.75 * largest else out
+
+    result = solve(Refusing(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)),
+                   ILQRSettings(reg_init=0.0, reg_min=0.0, max_iterations=1))
+    (entry,) = result.log
+    assert entry["alpha"] == 0.5
+    assert entry["predicted"] == pytest.approx(entry["actual"], rel=1e-9)
+    # LQR: d2 = -d1 / 2, so the model's decrease at alpha 1/2 is 3/4 of the full step's
+    assert entry["predicted"] == pytest.approx(0.75 * entry["expected"], rel=1e-9)
 
 
 def test_trust_region_bounds_every_step_and_still_reaches_the_optimum():
@@ -331,6 +353,44 @@ def test_bounded_controls_reach_the_constrained_optimum_with_nonnegative_predict
                                 tolerance=1e-14))
     np.testing.assert_allclose(result.us[0], known, atol=1e-6)
     assert all(e["expected"] >= 0 for e in result.log)
+
+
+def test_per_knot_bounds_pin_controls_and_the_rest_solve_the_reduced_problem():
+    """Bounds (T, nu) that meet pin those controls; the free ones are the equality-constrained
+    optimum (the batch normal equations with the pinned columns moved to the right side)."""
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=2, T=6)
+    nu = B.shape[1]
+    lo, hi = np.full((T, nu), -np.inf), np.full((T, nu), np.inf)
+    pinned = np.zeros((T, nu), dtype=bool)
+    pinned[-1, :] = True  # the last control, both numbers
+    pinned[:, 1] = True  # the second control at every knot
+    values = np.where(pinned, 0.3, 0.0)
+    lo[pinned], hi[pinned] = values[pinned], values[pinned]
+    result = solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, nu)),
+                   ILQRSettings(max_iterations=10, u_min=lo, u_max=hi, tolerance=1e-14))
+    np.testing.assert_array_equal(result.us[pinned], values[pinned])
+    # the reduced problem: J(U) = 1/2 U'HU + g'U over the free entries of U
+    nx = A.shape[0]
+    Sx = np.vstack([np.linalg.matrix_power(A, t) for t in range(T + 1)])
+    Su = np.zeros(((T + 1) * nx, T * nu))
+    for t in range(T + 1):
+        for s in range(t):
+            Su[t * nx:(t + 1) * nx, s * nu:(s + 1) * nu] = np.linalg.matrix_power(A, t - 1 - s) @ B
+    Qbar = np.kron(np.eye(T + 1), Q)
+    Qbar[-nx:, -nx:] = Qf
+    H = Su.T @ Qbar @ Su + np.kron(np.eye(T), R)
+    g = Su.T @ Qbar @ Sx @ x0
+    free, fixed = ~pinned.ravel(), values.ravel()
+    rhs = -(g[free] + H[np.ix_(free, ~free)] @ fixed[~free])
+    known = np.linalg.solve(H[np.ix_(free, free)], rhs)
+    np.testing.assert_allclose(result.us.ravel()[free], known, atol=1e-8)
+
+
+def test_per_knot_bounds_of_the_wrong_shape_are_rejected():
+    A, B, Q, R, Qf, x0, T = _lqr_problem(T=4)
+    with pytest.raises(ValueError):
+        solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)),
+              ILQRSettings(u_min=np.zeros((T + 1, 2))))
 
 
 class Unimprovable(LinearDynamics):

@@ -117,20 +117,35 @@ def _smooth_angle(cos_angle: float, dcos: np.ndarray, ddcos: np.ndarray | None,
     return Term(value, gradient, a_exact * np.outer(dcos, dcos) + b * ddcos)
 
 
-def upright(R_WB: np.ndarray, gauss_newton: bool = False, majorize: bool = False) -> Term:
+def upright(R_WB: np.ndarray, gauss_newton: bool = False, majorize: bool = False,
+            tilt: bool = False) -> Term:
     """c_upright = tilt angle of the box's z axis from W's z, over a rotation vector in W (3,).
 
     Exact Hessian (it may be indefinite far from upright), or with ``gauss_newton`` the
     positive semi-definite Gauss-Newton one (what iLQR needs: an indefinite term, carried back
     through phi's Jacobians, made Q_uu indefinite beyond any regulariser on fig6, measured),
-    or with ``majorize`` the majorizer's (see `_smooth_angle`).
+    or with ``majorize`` the majorizer's (see `_smooth_angle`). Both are built on
+    cos(theta), whose gradient vanishes at upright, so they are flat there: a standing box's
+    first tip is invisible to the model. With ``tilt`` the Hessian is J'J / s instead, J the
+    Jacobian of the tilt residual r = the horizontal part (x, y) of the box's z axis (|r| =
+    sin(theta)) and s = sqrt(theta^2 + eps^2): the majorizer's curvature written in r, equal to
+    it along the tilt near upright, positive semi-definite, and of rank 2 at rest (1/eps).
     """
     b = R_WB[:, 2]
     z = np.array([0.0, 0.0, 1.0])
     # b(w) = exp([w]x) b = b + w x b + 1/2 w x (w x b) + ...;  c = z . b(w)
     dcos = np.cross(b, z)
     ddcos = 0.5 * (np.outer(z, b) + np.outer(b, z)) - b[2] * np.eye(3)
-    return _smooth_angle(b[2], dcos, None if gauss_newton or majorize else ddcos, majorize)
+    term = _smooth_angle(b[2], dcos, None if gauss_newton or majorize else ddcos, majorize)
+    if not tilt:
+        return term
+    theta = float(np.arccos(np.clip(b[2], -1.0, 1.0)))
+    J = -_skew(b)[:2]  # d r / d w: b(w) ~ b + w x b = b - [b]x w
+    return Term(term.value, term.gradient, J.T @ J / np.hypot(theta, ANGLE_SMOOTHING))
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def gripper_horizontal(z_gripper_W: np.ndarray, dz_dq: np.ndarray) -> Term:

@@ -305,7 +305,8 @@ class PhysicsObjective:
             m = costs.motion(b[4:7], self.p_start[i])
             motion = _add(motion, _embed(m, [start + 3, start + 4, start + 5], nz))
             u = costs.upright(box_state_to_pose(b).rotation().matrix(), gauss_newton=True,
-                              majorize=self.config.distance_curvature == "majorizer")
+                              majorize=self.config.distance_curvature == "majorizer",
+                              tilt=self.config.upright_curvature == "tilt")
             upright = _add(upright, _embed(u, [start, start + 1, start + 2], nz))
         return {"motion": motion.scaled(self.config.w_motion),
                 "upright": upright.scaled(self.config.w_upright)}

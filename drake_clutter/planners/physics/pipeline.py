@@ -19,7 +19,18 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `object
 3. ``full``: the remaining ``iterations - sphere_iterations`` with the capsule arm;
 4. ``post`` (Sec. V-B): the kinematic arm again, c_static in the evaluation geometry (at
    ``post_substeps`` configurations per knot interval) + c_match + c_match_vel to the physics
-   plan.
+   plan;
+5. ``select`` (ours, ``select_in_phi``): the post-processed, the pre-processed and the
+   baseline's paths rolled out in one phi pruned for all three, with the full stage's objective
+   (hold tail included); the lowest is the plan (ties go to the earlier in that order), so the
+   physics plan is never worse than its baseline in phi's own objective. ``details["select"]``
+   lists the objectives and the choice.
+
+What the stages keep (bounds, not costs; ours): the pre-processing keeps the baseline's last
+knot and gripper openings (``pre_keep_pregrasp``: Sec. IV's pre-grasp pose is a constraint
+there, and c_dynamic on the target's neighbours pulled the soft terminal cost off it), the
+post-processing its reference's (``post_keep_end``), and the phi stages open the gripper at
+the last knot at least as wide as the baseline did (``keep_open``).
 
 Each phi stage prunes the boxes against its initial path (`pruning.make_pruned_spec`), settles
 the kept boxes in phi under the arm at the start configuration (``dynamics.settle_time``),
@@ -48,6 +59,7 @@ import numpy as np
 
 from drake_clutter.common.config import Config, ConfigError
 from drake_clutter.phi.derivatives import check_derivative_method
+from drake_clutter.phi.dynamics import ARM_DIM
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.physics.geometry import ArmGeometry
@@ -61,6 +73,9 @@ from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
 ROLL_BOUND = 4 * np.pi  # rad, bound of the continuous rolls' controls; ours: two turns either
 # way is more than any reach needs, and a bound keeps a bad feedback gain from sending phi a
 # control of 1e200 rad (seen on the default scene)
+
+
+GRIPPER = ARM_DIM - 1  # the control's column of the gripper opening (m)
 
 
 class PhiFailure(RuntimeError):
@@ -89,14 +104,34 @@ def control_bounds() -> tuple[tuple[float, ...], tuple[float, ...]]:
             tuple(hi for _, hi in limits) + (pr2.GRIPPER_MAX_OPENING,))
 
 
-def solver_settings(config: Config, iterations: int, knot_time: float | None = None
-              ) -> ilqr.ILQRSettings:
+def knot_bounds(q_ref: np.ndarray, last_knot: bool = False, gripper: bool = False,
+                min_final_opening: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Per-knot control bounds (T, 8) for iLQR about the knot path ``q_ref`` (T + 1, 8): the
+    `control_bounds` at every knot, the last knot pinned to q_ref's (``last_knot``), every
+    knot's gripper opening pinned to q_ref's (``gripper``), the last knot's opening at least
+    ``min_final_opening`` (m; None: no such bound)."""
+    lo, hi = (np.array(b, dtype=float) for b in control_bounds())
+    T = len(q_ref) - 1
+    lo, hi = np.tile(lo, (T, 1)), np.tile(hi, (T, 1))
+    ref = np.clip(np.asarray(q_ref, dtype=float)[1:], lo, hi)
+    if last_knot:
+        lo[-1], hi[-1] = ref[-1], ref[-1]
+    if gripper:
+        lo[:, GRIPPER], hi[:, GRIPPER] = ref[:, GRIPPER], ref[:, GRIPPER]
+    if min_final_opening is not None:
+        lo[-1, GRIPPER] = min(max(lo[-1, GRIPPER], min_final_opening), hi[-1, GRIPPER])
+    return lo, hi
+
+
+def solver_settings(config: Config, iterations: int, knot_time: float | None = None,
+                    bounds: tuple[np.ndarray, np.ndarray] | None = None) -> ilqr.ILQRSettings:
     """The solver's settings (line search of `PhysicsConfig`); with ``knot_time`` (s) those of
     a phi stage: also the trust region, the open-loop retry, the failed-search stop (the
     kinematic stages need mu ~ 1 before their first step, measured on fig5/fig6) and the cost
     floor 0 (every Table I term is non-negative; fig6's first model predicted a decrease of
-    6.8e5 from an objective of 2.7e3 and every rollout failed, measured)."""
-    lo, hi = control_bounds()
+    6.8e5 from an objective of 2.7e3 and every rollout failed, measured). ``bounds``: per-knot
+    (lo, hi) of `knot_bounds` (default: `control_bounds` at every knot)."""
+    lo, hi = control_bounds() if bounds is None else bounds
     cfg = config.physics
     settings = ilqr.ILQRSettings(max_iterations=iterations, tolerance=cfg.tolerance,
                                  u_min=lo, u_max=hi, line_search_steps=cfg.line_search_steps,
@@ -131,8 +166,10 @@ def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
         p_pregrasp=geometry.tool(q_init[-1])[0], w_static_hull=config.baseline.w_static_hull,
         w_vel=(config.baseline.w_vel if config.physics.pre_w_vel is None
                else config.physics.pre_w_vel))
+    keep = config.physics.pre_keep_pregrasp
+    bounds = knot_bounds(q_init, last_knot=keep, gripper=keep)
     result = ilqr.solve(KinematicArm(), objective, q_init[0], q_init[1:],
-                        solver_settings(config, config.physics.pre_iterations))
+                        solver_settings(config, config.physics.pre_iterations, bounds=bounds))
     return result.xs, result
 
 
@@ -144,32 +181,38 @@ def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
     objective = KinematicObjective(geometry, config.physics, "post", config.baseline.d_safe,
                                    scene.target, q_ref=q_ref,
                                    knot_time=config.baseline.knot_time)
+    keep = config.physics.post_keep_end
+    bounds = knot_bounds(q_ref, last_knot=keep, gripper=keep)
     result = ilqr.solve(KinematicArm(), objective, q_ref[0], q_ref[1:],
-                        solver_settings(config, config.physics.post_iterations))
+                        solver_settings(config, config.physics.post_iterations, bounds=bounds))
     return result.xs, result
 
 
 def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
                   pool: WorkerPool | None = None, times: np.ndarray | None = None,
                   alternatives: tuple[np.ndarray, ...] = (),
-                  approach: np.ndarray | None = None
+                  approach: np.ndarray | None = None, min_opening: float | None = None
                   ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
     """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
     default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
     stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
     shape and start), iLQR starts from whichever of ``q`` and them has the lowest objective in
-    this stage's phi (pruned to ``q``); info's ``start_objectives`` lists them. ``approach``:
-    the final approach direction in W of c_approach (`PhysicsConfig.approach_knots`)."""
+    this stage's phi (pruned for all of them); info's ``start_objectives`` lists them.
+    ``approach``: the final approach direction in W of c_approach
+    (`PhysicsConfig.approach_knots`); ``min_opening``: the last knot's least gripper opening
+    (m, `knot_bounds`)."""
     knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
-    with stage_problem(scene, q, config, variant, pool, knot_time, approach) as problem:
+    with stage_problem(scene, q, config, variant, pool, knot_time, approach,
+                       also=tuple(alternatives)) as problem:
         augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
         starts = [q, *alternatives]
         values = [_path_objective(augmented, objective, z0, path) for path in starts]
         if not np.any(np.isfinite(values)):
             raise PhiFailure("phi failed on the initial rollout")
         q = starts[int(np.argmin(values))]
+        bounds = knot_bounds(q, min_final_opening=min_opening)
         result = ilqr.solve(augmented, objective, z0, q[1:],
-                            solver_settings(config, iterations, knot_time),
+                            solver_settings(config, iterations, knot_time, bounds),
                             difference=augmented.difference)
         info = {"kept_boxes": list(augmented.layout.box_names),
                 "pruning": problem.report.summary(),
@@ -196,6 +239,26 @@ def _path_objective(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.
     return float("inf") if terms is None else float(sum(terms.values()))
 
 
+def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
+                times: np.ndarray | None = None, approach: np.ndarray | None = None
+                ) -> tuple[str, dict]:
+    """The name of the knot path (each (T + 1, 8), one start) with the lowest objective of the
+    full stage (capsule arm, hold tail) in one phi pruned for all ``paths``, and what was
+    measured: each path's objective (inf where phi fails) and the pruning. Ties go to the
+    earlier name; when phi fails on every path, the first."""
+    knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+    names = list(paths)
+    first, *others = (paths[n] for n in names)
+    with stage_problem(scene, first, config, "capsules", pool, knot_time, approach,
+                       also=tuple(others)) as problem:
+        values = {n: _path_objective(problem.augmented, problem.objective, problem.z0, paths[n])
+                  for n in names}
+        pruning = problem.report.summary()
+    chosen = min(names, key=lambda n: (values[n], names.index(n)))
+    finite = {n: (v if np.isfinite(v) else None) for n, v in values.items()}
+    return chosen, {"objectives": finite, "chosen": chosen, "pruning": pruning}
+
+
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
                           variant: str, iterations: int, pool, times,
                           alternatives: tuple[np.ndarray, ...] = (), approach=None):
@@ -203,9 +266,10 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
     cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
     the pre-processing or sphere stage produced with the hydroelastic phi, measured on
     fig7); its info says which."""
+    opening = (float(paths[1][-1, GRIPPER]) if config.physics.keep_open else None)
     try:
         q, result, info = physics_stage(scene, paths[0], config, variant, iterations, pool,
-                                        times, alternatives, approach)
+                                        times, alternatives, approach, opening)
         best = int(np.argmin(info["start_objectives"]))
         return q, result, {**info, "started_from": "previous stage" if best == 0 else
                            f"alternative {best}"}
@@ -213,7 +277,7 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
         if np.array_equal(paths[0], paths[1]):
             raise
         q, result, info = physics_stage(scene, paths[1], config, variant, iterations, pool,
-                                        times, approach=approach)
+                                        times, approach=approach, min_opening=opening)
         return q, result, {**info, "started_from": f"baseline ({exc})"}
 
 
@@ -253,10 +317,13 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
             continue
         tic = time.perf_counter()
         try:
-            # The full stage may start from the pre-processed path instead of the sphere
-            # stage's: that stage's phi had no target and another gripper, and its path knocked
-            # the target 14 cm away in the full stage's phi (fig6, measured).
-            others = (q_pre,) if name == "full" and q is not q_pre else ()
+            # The full stage may start from the pre-processed or the baseline's path instead of
+            # the sphere stage's: that stage's phi had no target and another gripper, and its
+            # path knocked the target 14 cm away in the full stage's phi (fig6, measured).
+            others = ()
+            if name == "full":
+                others = tuple(p for p in (q_pre, baseline_q)
+                               if p is not q and not np.array_equal(p, q))
             q, result, info = _phi_stage_or_restart(scene, (q, baseline_q), config, variant,
                                                     iterations, pool, candidate.trajectory.times,
                                                     others, approach)
@@ -274,6 +341,16 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         return _failed(candidate, f"post stage: {exc}", timings, details)
     timings["post"] = time.perf_counter() - tic
     details["stages"]["post"] = _stage_record(result, timings["post"])
+    if cfg.select_in_phi:
+        tic = time.perf_counter()
+        paths = {"post": q, "pre": q_pre, "baseline": baseline_q}
+        try:
+            chosen, details["select"] = select_path(scene, paths, config, pool,
+                                                    candidate.trajectory.times, approach)
+        except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep post
+            chosen, details["select"] = "post", {"chosen": "post", "error": str(exc)}
+        q = paths[chosen]
+        timings["select"] = time.perf_counter() - tic
     if last is not None:
         details["feedback"] = {"boxes": last[1]["kept_boxes"], "K": last[0].K.tolist(),
                                "k": last[0].k.tolist()}

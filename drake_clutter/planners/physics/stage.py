@@ -17,6 +17,7 @@ from drake_clutter.common.config import Config
 from drake_clutter.phi.derivatives import PhiDynamics
 from drake_clutter.phi.dynamics import (
     ARM_DIM,
+    BOX_TANGENT,
     StateLayout,
     initial_state,
     make_spec,
@@ -42,10 +43,10 @@ class AugmentedPhi:
     ``tail_knots`` knots of the held arm (`HoldTail`'s rollout) so the objective finds them."""
 
     def __init__(self, dynamics: PhiDynamics, max_spectral_radius: float = float("inf"),
-                 parallel: bool = False, tail_knots: int = 0):
+                 parallel: bool = False, tail_knots: int = 0, cap_per_box: bool = False):
         self.dynamics, self.layout = dynamics, dynamics.layout
         self.nx, self.ndx = self.layout.nx, self.layout.ndx
-        self.max_spectral_radius = max_spectral_radius
+        self.max_spectral_radius, self.cap_per_box = max_spectral_radius, cap_per_box
         self.parallel, self.tail_knots = parallel, tail_knots
 
     @property
@@ -80,7 +81,7 @@ class AugmentedPhi:
     def linearize(self, zs: np.ndarray, us: np.ndarray):
         """A (T, nz, nz), B (T, nz, 8) in tangent coordinates."""
         A_x, B_x = self.dynamics.linearize_tangent(zs[:, :self.nx], us)
-        cap_spectral_radius(A_x, self.max_spectral_radius)
+        cap_spectral_radius(A_x, self.max_spectral_radius, self.cap_per_box)
         T, nz = len(us), self.ndx + ARM_DIM
         A, B = np.zeros((T, nz, nz)), np.zeros((T, nz, ARM_DIM))
         A[:, :self.ndx, :self.ndx] = A_x
@@ -140,9 +141,10 @@ class HoldTail:
     ``ilqr.Cost`` protocol over the augmented state z = [x, q^(t-1)] of `AugmentedPhi`."""
 
     def __init__(self, objective: PhysicsObjective, dynamics: PhiDynamics, knots: int,
-                 max_spectral_radius: float = float("inf"), stride: int | None = None):
+                 max_spectral_radius: float = float("inf"), stride: int | None = None,
+                 cap_per_box: bool = False):
         self.objective, self.dynamics, self.knots = objective, dynamics, knots
-        self.max_spectral_radius = max_spectral_radius
+        self.max_spectral_radius, self.cap_per_box = max_spectral_radius, cap_per_box
         self.stride = stride  # the tail's derivative stride (None: phi's)
         self.nx, self.ndx = dynamics.layout.nx, dynamics.layout.ndx
 
@@ -181,7 +183,7 @@ class HoldTail:
         A, B = map(np.nan_to_num, self.dynamics.linearize_tangent(ys, holds, self.stride))
         ndx = self.ndx
         A[:, :, :ARM_DIM] += B  # the hold is x_T's arm: du = dx_arm
-        cap_spectral_radius(A, self.max_spectral_radius)
+        cap_spectral_radius(A, self.max_spectral_radius, self.cap_per_box)
         hold_rows = np.zeros((ARM_DIM, ndx))
         hold_rows[:, :ARM_DIM] = np.eye(ARM_DIM)
         J = np.eye(ndx)  # d y_k / d x_T
@@ -203,10 +205,14 @@ class HoldTail:
         return exp
 
 
-def cap_spectral_radius(A: np.ndarray, cap: float) -> np.ndarray:
+def cap_spectral_radius(A: np.ndarray, cap: float, per_box: bool = False) -> np.ndarray:
     """Scales, in place, the box-to-box block of every tangent Jacobian A_t (T, ndx, ndx) whose
     spectral radius exceeds ``cap`` down to it; returns the radii before. The arm's rows are
-    exact (zero: the arm is kinematic), so that block's radius is A_t's.
+    exact (zero: the arm is kinematic), so that block's radius is A_t's. With ``per_box``, each
+    box whose own diagonal block (BOX_TANGENT square) has a radius above the cap has its rows of
+    the block scaled down to it first, the others' rows kept (one toppling box no longer
+    shrinks the target's dynamics with its own); the whole block is scaled only if its radius
+    is still above the cap after that (boxes unstable together: two leaning on each other).
 
     Why: a box toppling or rocking on an edge is locally unstable (an inverted pendulum grows
     by e^(sqrt(g/l) 0.2 s) ~ 9 a knot), and phi's A_t had radii of 2-230 on fig8 (the same
@@ -216,14 +222,28 @@ def cap_spectral_radius(A: np.ndarray, cap: float) -> np.ndarray:
     growing; the line search on phi itself still accepts only real decreases."""
     radii = np.zeros(len(A))
     boxes = slice(ARM_DIM, A.shape[1])
+    n_boxes = (A.shape[1] - ARM_DIM) // BOX_TANGENT
     for t in range(len(A)):
         block = A[t, boxes, boxes]
         if block.size == 0 or not np.all(np.isfinite(block)):
             continue
-        radii[t] = float(np.max(np.abs(np.linalg.eigvals(block))))
-        if radii[t] > cap:
-            A[t, boxes, boxes] *= cap / radii[t]
+        radii[t] = _radius(block)
+        if radii[t] <= cap:
+            continue
+        if per_box:
+            for i in range(n_boxes):
+                own = slice(BOX_TANGENT * i, BOX_TANGENT * (i + 1))
+                r = _radius(block[own, own])
+                if r > cap:
+                    block[own] *= cap / r
+        r = _radius(block) if per_box else radii[t]
+        if r > cap:
+            block *= cap / r
     return radii
+
+
+def _radius(M: np.ndarray) -> float:
+    return float(np.max(np.abs(np.linalg.eigvals(M))))
 
 
 @dataclass
@@ -243,13 +263,14 @@ class StageProblem:
 @contextmanager
 def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
                   pool: WorkerPool | None = None, knot_time: float | None = None,
-                  approach: np.ndarray | None = None):
+                  approach: np.ndarray | None = None, also: tuple[np.ndarray, ...] = ()):
     """The `StageProblem` of a phi stage (``variant`` arm) about the knot path ``q`` (T + 1,
-    8; phi pruned to it), ``knot_time`` s apart (default ``baseline.knot_time``); its phi is
-    closed on leaving the ``with`` block. ``approach``: as in `physics_stage`."""
+    8; phi pruned to it and to the paths ``also``), ``knot_time`` s apart (default
+    ``baseline.knot_time``); its phi is closed on leaving the ``with`` block. ``approach``: as
+    in `physics_stage`."""
     knot_time = knot_time or config.baseline.knot_time
     spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
-                                    variant)
+                                    variant, also)
     held = (scene.target,) if variant == "sphere_gripper" else ()
     if held and config.physics.sphere_target == "passes":
         dynamic = [*spec.dynamic_boxes, *[n for n in held if n not in spec.dynamic_boxes]]
@@ -274,10 +295,11 @@ def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
                                      force_exclude=held, static_geometry=static,
                                      forces=dynamics, approach=approach,
                                      grasp_offset=grasp_offset(config.baseline))
+        per_box = cfg.spectral_cap_scope == "box"
         augmented = AugmentedPhi(dynamics, cfg.max_spectral_radius, cfg.parallel_line_search,
-                                 cfg.hold_knots)
+                                 cfg.hold_knots, per_box)
         if cfg.hold_knots > 0:
             objective = HoldTail(objective, dynamics, cfg.hold_knots, cfg.max_spectral_radius,
-                                 cfg.hold_derivative_stride)
+                                 cfg.hold_derivative_stride, per_box)
         yield StageProblem(dynamics, augmented, objective, np.concatenate([x0, q[0]]), report,
                            held)

@@ -147,3 +147,28 @@ def test_grasp_distance_majorizer_lies_above_the_distance():
         moved = grasp_distance(tool + step[:3], np.eye(3), target + step[3:], eps).value
         model = mm.value + mm.gradient @ step + 0.5 * step @ mm.hessian @ step
         assert moved <= model + 1e-12
+
+
+def test_upright_tilt_hessian_is_curved_at_rest_and_majorizes_the_angle():
+    """At upright the angle forms' Hessians vanish (built on cos, flat at 0); the tilt form's
+    is 1/eps on both horizontal axes and none about z, and its quadratic model lies above the
+    smoothed angle for small rotations in any direction (a majorizer: a step it predicts to
+    lower the cost does)."""
+    from scipy.spatial.transform import Rotation
+
+    at_rest = costs.upright(np.eye(3), gauss_newton=True, majorize=True, tilt=True)
+    np.testing.assert_allclose(at_rest.hessian, np.diag([1, 1, 0]) / costs.ANGLE_SMOOTHING,
+                               atol=1e-12)
+    assert np.abs(costs.upright(np.eye(3), gauss_newton=True, majorize=True).hessian).max() == 0
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        R0 = Rotation.from_rotvec(rng.normal(0, 0.02, 3)).as_matrix()
+        base = costs.upright(R0, gauss_newton=True, majorize=True, tilt=True)
+        plain = costs.upright(R0, gauss_newton=True, majorize=True)
+        assert base.value == plain.value
+        np.testing.assert_array_equal(base.gradient, plain.gradient)
+        assert np.all(np.linalg.eigvalsh(base.hessian) >= -1e-9)
+        w = rng.normal(0, 0.05, 3)
+        model = base.value + base.gradient @ w + 0.5 * w @ base.hessian @ w
+        actual = costs.upright(Rotation.from_rotvec(w).as_matrix() @ R0).value
+        assert model >= actual - 1e-6

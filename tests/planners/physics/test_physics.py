@@ -569,7 +569,51 @@ def test_preprocessing_keeps_the_pregrasp(scene, geometry, fig5_candidate):
     first, last = result.term_history[0], result.term_history[-1]
     assert sum(last.values()) <= sum(first.values())
     np.testing.assert_array_equal(q[0], q0[0])
-    assert np.linalg.norm(geometry.tool(q[-1])[0] - geometry.tool(q0[-1])[0]) < 0.01
+    np.testing.assert_array_equal(q[-1], q0[-1])  # the pre-grasp pose, a bound
+    np.testing.assert_array_equal(q[:, -1], q0[:, -1])  # the gripper's openings
+    assert np.abs(q - q0).max() > 1e-3  # it did move the path
+
+
+def test_knot_bounds_pin_the_last_knot_and_the_gripper():
+    from drake_clutter.planners.physics.pipeline import GRIPPER, control_bounds, knot_bounds
+
+    rng = np.random.default_rng(0)
+    low, high = (np.array(b) for b in control_bounds())
+    q = low + (high - low) * rng.uniform(0.1, 0.9, (6, 8))  # inside the joint limits
+    q[:, GRIPPER] = 0.04
+    lo, hi = knot_bounds(q)
+    np.testing.assert_array_equal(lo, np.tile(control_bounds()[0], (5, 1)))
+    lo, hi = knot_bounds(q, last_knot=True, gripper=True)
+    np.testing.assert_array_equal(lo[-1], q[-1])
+    np.testing.assert_array_equal(hi[-1], q[-1])
+    np.testing.assert_array_equal(lo[:, GRIPPER], q[1:, GRIPPER])
+    assert np.all(lo[:-1, :GRIPPER] < hi[:-1, :GRIPPER])  # the other joints stay free
+    lo, hi = knot_bounds(q, min_final_opening=0.06)
+    assert lo[-1, GRIPPER] == 0.06 and hi[-1, GRIPPER] == control_bounds()[1][GRIPPER]
+    assert lo[-2, GRIPPER] == 0.0
+
+
+@pytest.mark.parametrize("name", ["default_bookshelf", *load_spec("behaviours")[0].shipped])
+def test_pre_and_post_processing_keep_the_pregrasp_and_the_open_gripper(name):
+    """On every shipped scene, from the baseline's candidate at the scene's own angle: the
+    pre-processing ends on the baseline's pre-grasp pose with its gripper openings, and the
+    post-processing of that path on its last knot and openings."""
+    from drake_clutter.common.config import load_config
+    from drake_clutter.planners.baseline import plan_baseline
+    from drake_clutter.planners.physics.pipeline import postprocess, preprocess
+    from drake_clutter.scene.scenes import load_shipped_scene
+
+    shipped = load_shipped_scene(name)
+    config = load_config(None, ["physics.post_iterations=10"])
+    alpha = float(shipped.provenance.parameters.get("alpha", 0.0))
+    (candidate,) = plan_baseline(shipped, config.baseline, alphas=[alpha])
+    assert candidate.ok, candidate.reason
+    q0 = candidate.trajectory.q
+    q_pre, _ = preprocess(shipped, q0, config)
+    q_post, _ = postprocess(shipped, q_pre, config)
+    for q in (q_pre, q_post):
+        np.testing.assert_array_equal(q[-1], q0[-1])
+        np.testing.assert_array_equal(q[:, -1], q0[:, -1])
 
 
 def test_pre_w_vel_weights_the_preprocessings_c_vel(scene, geometry, fig5_candidate):
@@ -598,7 +642,7 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate):
                                 "dynamics.workers=0", "dynamics.derivative_stride=4"])
     (plan,) = plan_physics(scene, config, [fig5_candidate])
     assert plan.ok and plan.planner == "physics", plan.reason
-    assert set(plan.timings) == {"pre", "sphere", "full", "post"}
+    assert set(plan.timings) == {"pre", "sphere", "full", "post", "select"}
     stages = plan.details["stages"]
     for name in ("pre", "sphere", "full", "post"):
         history = stages[name]["cost_history"]
@@ -608,12 +652,23 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate):
         assert all(isinstance(e["alpha"], float) and e["alpha"] <= 1.0 for e in log)
         assert sum(e["alpha"] > 0 for e in log) == stages[name]["iterations"]
     assert "target" not in stages["sphere"]["kept_boxes"]  # out of phi in the sphere stage
-    # the full stage starts from the better of the sphere stage's and the pre-processed path
+    # the full stage starts from the best of the sphere stage's, the pre-processed and the
+    # baseline's path, compared in one phi
     starts = stages["full"]["start_objectives"]
-    assert len(starts) == 2 and min(starts) < float("inf")
+    assert len(starts) == 3 and min(starts) < float("inf")
     assert stages["full"]["cost_history"][0] == pytest.approx(min(starts), rel=1e-12)
-    assert stages["full"]["started_from"] == ("previous stage" if starts[0] <= starts[1]
-                                              else "alternative 1")
+    best = int(np.argmin(starts))
+    assert stages["full"]["started_from"] == ("previous stage" if best == 0
+                                              else f"alternative {best}")
+    # the plan is the best in phi of the post-processed, pre-processed and baseline paths: never
+    # worse than the baseline in phi's own objective
+    select = plan.details["select"]
+    values = select["objectives"]
+    assert set(values) == {"post", "pre", "baseline"} and values["baseline"] is not None
+    assert values[select["chosen"]] <= values["baseline"]
+    assert all(v is None or values[select["chosen"]] <= v for v in values.values())
+    if select["chosen"] == "baseline":
+        np.testing.assert_array_equal(plan.trajectory.q, fig5_candidate.trajectory.q)
     feedback = plan.details["feedback"]
     nz = 8 + 12 * len(feedback["boxes"]) + 8
     assert np.asarray(feedback["K"]).shape == (fig5_candidate.trajectory.num_knots - 1, 8, nz)
@@ -645,7 +700,7 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
     calls = []
 
     def stage(scene, q, config, variant, iterations, pool, times, alternatives=(),
-              approach=None):
+              approach=None, min_opening=None):
         calls.append(q)
         if q[0, 0] == 1.0:  # phi cannot simulate the previous stage's path
             raise physics.PhiFailure("phi failed on the initial rollout")
@@ -762,6 +817,36 @@ def test_unstable_box_jacobians_are_capped_and_stable_ones_kept():
     assert max(abs(np.linalg.eigvals(A[1, 8:, 8:]))) == pytest.approx(1.0)
     np.testing.assert_array_equal(A[1, :, :8], before[1, :, :8])
     np.testing.assert_allclose(A[1, 8:, 8:], before[1, 8:, 8:] / 9.0)
+
+
+def test_per_box_cap_scales_the_toppling_box_alone():
+    """Two boxes, the second toppling (radius 9): per box, only its rows of the box block are
+    scaled (its radius then 1) and the first box's rows (the target's dynamics) are kept; two
+    boxes unstable together (each stable alone) still get the whole block scaled."""
+    from drake_clutter.planners.physics.stage import cap_spectral_radius
+
+    ndx = 8 + 24
+    rng = np.random.default_rng(1)
+    A = np.eye(ndx)
+    A[:8] = 0.0
+    A[8:, :8] = rng.normal(size=(24, 8))
+    A[8:20, 20:32] = 0.1 * rng.normal(size=(12, 12))  # box 2 pushes box 1
+    A[20:23, 20:23] = 9.0 * np.eye(3)  # box 2 topples
+    before = A.copy()
+    (radius,) = cap_spectral_radius(A[None], 1.0, per_box=True)
+    assert radius == pytest.approx(9.0)
+    np.testing.assert_array_equal(A[8:20], before[8:20])  # box 1's rows, its coupling too
+    np.testing.assert_allclose(A[20:, 8:], before[20:, 8:] / 9.0)
+    np.testing.assert_array_equal(A[20:, :8], before[20:, :8])  # the arm's columns
+    assert max(abs(np.linalg.eigvals(A[8:, 8:]))) <= 1.0 + 1e-9
+    # leaning on each other: each diagonal block stable, together unstable
+    pair = np.eye(ndx)
+    pair[:8] = 0.0
+    pair[8:20, 20:32] = 3.0 * np.eye(12)
+    pair[20:32, 8:20] = 3.0 * np.eye(12)
+    (radius,) = cap_spectral_radius(pair[None], 1.0, per_box=True)
+    assert radius == pytest.approx(4.0)
+    assert max(abs(np.linalg.eigvals(pair[8:, 8:]))) == pytest.approx(1.0)
 
 
 def test_hold_tail_pays_for_a_fall_after_delta_and_its_gradient_matches_differences():

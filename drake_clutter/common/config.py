@@ -308,6 +308,10 @@ class DynamicsConfig:
     prune_margin: float = 0.05
     # Jacobians A_t, B_t every k-th knot and the last, interpolated between (1: all), count; ours
     derivative_stride: int = 3
+    # the stride skips only quiet knots (no arm-box contact, no box moving), flag; ours
+    stride_quiet_only: bool = False
+    # a box moves at a knot when |v| + 0.1 m x |w| at its end exceeds this, m/s; ours
+    quiet_speed: float = 0.01
     # how phi's Jacobians are taken ("fd", "autodiff", "hybrid"), choice; ours
     derivative_method: Literal["fd", "autodiff", "hybrid"] = "hybrid"
     # colour groups at a knot from which "hybrid" takes AutoDiffXd, count; ours
@@ -460,6 +464,16 @@ class PhysicsConfig:
     feedback: bool = True
     # smallest control move that keeps a phi stage going (0 = off), rad (m: opening); ours
     min_step: float = 1e-3
+    # every stage's backward pass solves each knot's box-constrained QP (Tassa 2014), flag; ours
+    box_qp: bool = False
+    # the phi stages' trust region bounds the backward pass's QP, not only clips, flag; ours
+    trust_bounds: bool = False
+    # the phi stages' trust region adapts to actual / predicted decrease, flag; ours
+    trust_adapt: bool = False
+    # least actual / predicted decrease of an accepted phi-stage step (0: any), unitless; ours
+    accept_ratio: float = 0.0
+    # the phi stages' regulariser is scaled per control by its trust-region step, flag; ours
+    scaled_regulariser: bool = False
 
 
 @dataclass(frozen=True)

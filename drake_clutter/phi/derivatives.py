@@ -26,6 +26,9 @@ Brute force perturbs every column of [x, u] (ndx + nu + 1 phi evaluations per kn
    same; a group's column of the result is J times the sum of its unit columns either way.
 6. Stride. With ``derivative_stride`` k > 1 only every k-th knot (and the last) is
    differentiated; A and B are interpolated linearly (in tangent coordinates) between them.
+   With ``stride_quiet_only`` the knots where the arm touches a kept box or a kept box moves
+   (`active_knots`) are differentiated too: an arm-box contact lasts 1-2 knots, and
+   interpolating across it smears the push over knots where nothing touches.
 
 Jacobians live in tangent coordinates (`dynamics.StateLayout`: rotations as rotation vectors
 in W); `PhiDynamics.linearize` maps them to state coordinates (quaternions) for a solver that
@@ -64,6 +67,7 @@ class LinearizeStats:
     differentiated_knots: int = 0
     evaluations: list[int] = field(default_factory=list)  # phi evaluations per knot
     known_boxes: int = 0  # boxes-only component blocks reused from earlier knots
+    active_knots: int = 0  # knots with arm-box contact or a moving box (`active_knots`)
     autodiff_knots: int = 0  # knots differentiated by AutoDiffXd (their groups are seed
     # directions of one AutoDiffXd step, not phi evaluations)
     traced: int = 0  # knots whose nominal step had to be traced again
@@ -110,7 +114,10 @@ def derivative_spec(spec: PhiSpec) -> PhiSpec:
 def check_derivative_method(config: DynamicsConfig, world: WorldConfig) -> None:
     """Raises ConfigError unless ``config.derivative_method`` can differentiate phi under the
     approximation it is linearised with (`linearized_approximation`): AutoDiffXd ("autodiff",
-    "hybrid") only under "sap"."""
+    "hybrid") only under "sap"; and unless ``quiet_speed`` is non-negative."""
+    if config.quiet_speed < 0:
+        raise ConfigError("<configuration>", "dynamics.quiet_speed",
+                          f"must be non-negative, got {config.quiet_speed!r}")
     approximation = linearized_approximation(config, world)
     if config.derivative_method != "fd" and approximation != "sap":
         raise ConfigError(
@@ -245,8 +252,14 @@ class PhiDynamics:
         tic = time.perf_counter()
         T = len(us)
         knots = differentiated_knots(T, stride)
-        self.stats = LinearizeStats(knots=T, differentiated_knots=len(knots))
+        self.stats = LinearizeStats(knots=T)
         self._trace_missing(xs, us, range(T))
+        if stride > 1 and self.config.stride_quiet_only:
+            active = active_knots(self.layout, [self._steps[self._key(xs[t], us[t])]
+                                                for t in range(T)], self.config.quiet_speed)
+            self.stats.active_knots = len(active)
+            knots = sorted(set(knots) | set(active))
+        self.stats.differentiated_knots = len(knots)
         pending: dict[tuple, list[tuple[np.ndarray, int]]] = {}
         work = [self._plan(t, xs[t], us[t], pending) for t in knots]
         results = self._evaluate(work)
@@ -420,6 +433,21 @@ class PhiDynamics:
 
 def _close(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
     return bool(np.max(np.abs(a - b)) <= tolerance)
+
+
+def active_knots(layout, steps, quiet_speed: float) -> list[int]:
+    """The knots t whose step (x_next, edges, forces), one per knot, has the arm touching a
+    kept box (an edge between ARM_NODE and a box node) or a kept box moving at its end (|v| +
+    0.1 m x |w| above ``quiet_speed``, m/s; W frame)."""
+    out = []
+    for t, (x_next, edges, _) in enumerate(steps):
+        touching = any(ARM_NODE in e and min(e) >= 0 and max(e) > ARM_NODE for e in edges)
+        boxes = layout.boxes(x_next)
+        speed = (np.linalg.norm(boxes[:, 10:13], axis=1) + 0.1 * np.linalg.norm(boxes[:, 7:10],
+                                                                               axis=1))
+        if touching or (len(speed) and float(speed.max()) > quiet_speed):
+            out.append(t)
+    return out
 
 
 def differentiated_knots(num_knots: int, stride: int) -> list[int]:

@@ -120,6 +120,19 @@ class ILQRSettings:
     # (K = 0) always, for dynamics whose state deviations are chaotic
     min_step: float = 0.0  # stop ("small_step") after an accepted step that changed no
     # control by more than this (its largest |u - u_bar|); 0: no such rule
+    box_qp: bool = False  # the backward pass solves each knot's box-constrained QP (bounds,
+    # and the trust region when ``trust_bounds``) by projected Newton (Tassa et al. 2014)
+    # instead of pinning only the controls already on a bound
+    trust_bounds: bool = False  # the trust region is a bound of the backward pass's QP (the
+    # predicted decrease then describes the step taken), not only a clip after the policy
+    trust_adapt: bool = False  # the trust region's radius adapts to the accepted step's
+    # actual / predicted decrease (x2 above 0.75 when the step reached the region's edge, x1/4
+    # below 0.25), between 1/64 and 1 of step_limit; a failed line search quarters it and
+    # counts as failed (raising mu, for max_failed_searches) only at the smallest radius
+    accept_ratio: float = 0.0  # a step is accepted only if its actual decrease is at least
+    # this fraction of the model's at its step size (0: any decrease)
+    reg_scale: tuple[float, ...] | None = None  # per-control scale of the regulariser: mu
+    # diag(reg_scale^2) on Q_uu (controls in mixed units: rad, m); None: mu I
 
 
 class StopReason(StrEnum):
@@ -181,13 +194,19 @@ def _bounds(settings: ILQRSettings, shape: tuple[int, int]) -> tuple[np.ndarray,
 
 
 def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
-                  lo: np.ndarray | None = None, hi: np.ndarray | None = None):
+                  lo: np.ndarray | None = None, hi: np.ndarray | None = None,
+                  box_qp: bool = False, reg_scale: np.ndarray | None = None):
     """Riccati-like recursion. Returns (k, K, expected decrease terms (d1, d2)) or None when
     Q_uu + mu I is not positive definite at some knot. ``lo``/``hi``: (nu,) or (T, nu); a
-    control whose bounds meet is pinned (no step, no feedback)."""
+    control whose bounds meet is pinned (no step, no feedback). Without ``box_qp`` the controls
+    sitting on a bound with the gradient pushing outwards are held and the rest solve their
+    block; with it each knot's step is the minimiser of the model within the bounds
+    (`box_qp`), the controls it clamps held. ``reg_scale`` (nu,): the regulariser is mu
+    diag(reg_scale^2) (controls in mixed units), default mu I."""
     T, nu, nx = exp.lu.shape[0], exp.lu.shape[1], exp.lx.shape[1]
     if us is not None:
         lo, hi = np.broadcast_to(lo, (T, nu)), np.broadcast_to(hi, (T, nu))
+    reg = mu * (np.ones(nu) if reg_scale is None else np.asarray(reg_scale, float) ** 2)
     k, K = np.zeros((T, nu)), np.zeros((T, nu, nx))
     vx, vxx = exp.vx.copy(), exp.vxx.copy()
     d1 = d2 = 0.0
@@ -198,20 +217,28 @@ def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
         qxx = exp.lxx[t] + At.T @ vxx @ At
         quu = exp.luu[t] + Bt.T @ vxx @ Bt
         qux = exp.lux[t] + Bt.T @ vxx @ At
-        free = np.ones(nu, dtype=bool)
-        if us is not None:  # controls pinned on a bound with the gradient pushing outwards
-            free &= ~(((us[t] <= lo[t]) & (qu > 0)) | ((us[t] >= hi[t]) & (qu < 0))
-                      | (lo[t] >= hi[t]))
-        # Pinned controls stay put (k = 0, K = 0); the free ones solve their own block, so the
+        H = quu + np.diag(reg)
+        kt, Kt = np.zeros(nu), np.zeros((nu, nx))
+        if us is not None and box_qp:
+            solved = box_qp_solve(H, qu, lo[t] - us[t], hi[t] - us[t])
+            if solved is None:
+                return None
+            kt, free = solved
+        else:
+            free = np.ones(nu, dtype=bool)
+            if us is not None:  # controls pinned on a bound with the gradient pushing outwards
+                free &= ~(((us[t] <= lo[t]) & (qu > 0)) | ((us[t] >= hi[t]) & (qu < 0))
+                          | (lo[t] >= hi[t]))
+        # Held controls stay put (k = 0, K = 0); the free ones solve their own block, so the
         # step is the minimiser of the model over the free controls (the predicted decrease is
         # then never negative; zeroing rows of the full solution could make it so).
-        kt, Kt = np.zeros(nu), np.zeros((nu, nx))
         if free.any():
             try:
-                chol = np.linalg.cholesky(quu[np.ix_(free, free)] + mu * np.eye(free.sum()))
+                chol = np.linalg.cholesky(H[np.ix_(free, free)])
             except np.linalg.LinAlgError:
                 return None
-            kt[free] = -_chol_solve(chol, qu[free])
+            if not (us is not None and box_qp):
+                kt[free] = -_chol_solve(chol, qu[free])
             Kt[free] = -_chol_solve(chol, qux[free])
         k[t], K[t] = kt, Kt
         d1 += kt @ qu
@@ -219,6 +246,53 @@ def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
         vx = qx + Kt.T @ quu @ kt + Kt.T @ qu + qux.T @ kt
         vxx = _psd(qxx + Kt.T @ quu @ Kt + Kt.T @ qux + qux.T @ Kt)
     return k, K, (d1, d2)
+
+
+def box_qp_solve(H: np.ndarray, g: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+                 iterations: int = 30) -> tuple[np.ndarray, np.ndarray] | None:
+    """min 1/2 x'Hx + g'x subject to lower <= x <= upper (lower <= 0 <= upper expected; a
+    bound pair that meets holds its x there) by projected Newton from x = 0, as in Tassa et
+    al. (2014): the free set's Newton step, an Armijo search along its projection, until the
+    clamped set and x settle. Returns (x, free) with free the entries not clamped, or None
+    when H's free block is not positive definite."""
+    n = len(g)
+    lower, upper = np.minimum(lower, 0.0), np.maximum(upper, 0.0)
+    x = np.zeros(n)
+    value = 0.0
+    free = np.ones(n, dtype=bool)
+    for _ in range(iterations):
+        grad = g + H @ x
+        clamped = (((x <= lower) & (grad > 0)) | ((x >= upper) & (grad < 0))
+                   | (lower >= upper))
+        free = ~clamped
+        if not free.any():
+            break
+        try:
+            chol = np.linalg.cholesky(H[np.ix_(free, free)])
+        except np.linalg.LinAlgError:
+            return None
+        target = x.copy()
+        target[free] = -_chol_solve(chol, g[free] + H[np.ix_(free, clamped)] @ x[clamped])
+        direction = target - x
+        if np.max(np.abs(direction), initial=0.0) < 1e-13:
+            break
+        step, accepted = 1.0, False
+        while step > 1e-8:
+            trial = np.clip(x + step * direction, lower, upper)
+            trial_value = 0.5 * trial @ H @ trial + g @ trial
+            if trial_value <= value + 0.1 * grad @ (trial - x):
+                accepted = True
+                break
+            step *= 0.5
+        if not accepted:
+            break
+        moved = np.max(np.abs(trial - x))
+        x, value = trial, trial_value
+        if moved < 1e-12:
+            break
+    grad = g + H @ x
+    free = ~(((x <= lower) & (grad > 0)) | ((x >= upper) & (grad < 0)) | (lower >= upper))
+    return x, free
 
 
 def _psd(M: np.ndarray) -> np.ndarray:
@@ -278,7 +352,9 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     settings = settings or ILQRSettings()
     us = np.array(us_init, dtype=float)
     lo, hi = _bounds(settings, us.shape)
-    limit = None if settings.step_limit is None else np.asarray(settings.step_limit, float)
+    base = None if settings.step_limit is None else np.asarray(settings.step_limit, float)
+    radius = 1.0  # the trust region's, a fraction of step_limit (``trust_adapt``)
+    reg_scale = None if settings.reg_scale is None else np.asarray(settings.reg_scale, float)
     us = np.clip(us, lo, hi)
     if not np.all(np.isfinite(us)):
         raise ValueError("the initial controls are not all finite")
@@ -308,16 +384,20 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
         accepted, failed = False, 0
         while mu <= settings.reg_max and (settings.max_failed_searches is None
                                           or failed < settings.max_failed_searches):
+            limit = None if base is None else radius * base
+            qp_lo, qp_hi = lo, hi
+            if limit is not None and settings.trust_bounds:
+                qp_lo, qp_hi = np.maximum(lo, us - limit), np.minimum(hi, us + limit)
             tic = time.perf_counter()
-            bp = backward_pass(A, B, exp, mu, us, lo, hi)
+            bp = backward_pass(A, B, exp, mu, us, qp_lo, qp_hi, settings.box_qp, reg_scale)
             timings["backward"] += time.perf_counter() - tic
             if bp is None:
                 mu = max(mu * settings.reg_factor, settings.reg_min)
                 continue
             k, K, (d1, d2) = bp
             entry = {"mu": mu, "expected": -(d1 + d2), "alpha": 0.0, "actual": 0.0,
-                     "predicted": 0.0, "open_loop": False, "tries": 0, "passes": 0,
-                     "nonfinite": nonfinite}
+                     "predicted": 0.0, "radius": radius, "open_loop": False, "tries": 0,
+                     "passes": 0, "nonfinite": nonfinite}
             log.append(entry)
             if -(d1 + d2) < settings.tolerance * max(abs(total), 1e-12):
                 break  # the model predicts no worthwhile decrease: a stationary point
@@ -326,13 +406,16 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                 continue  # predicted below the floor: raise mu without a rollout
             tic = time.perf_counter()
             step = _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings,
-                                difference, limit, entry, alpha0)
-            if step is not None:  # the model's decrease at the accepted step size
-                entry["predicted"] = -(entry["alpha"] * d1 + entry["alpha"] ** 2 * d2)
+                                difference, limit, entry, alpha0, (d1, d2))
             timings["forward"] += time.perf_counter() - tic
             if step is not None:
                 accepted = True
+                radius = _adapted_radius(radius, entry, limit, settings)
                 break
+            if settings.trust_adapt and base is not None and radius > TRUST_MIN:
+                # a smaller region before a larger mu; not counted as a failed search
+                radius = max(radius / 4.0, TRUST_MIN)
+                continue
             failed += 1
             mu = max(mu * settings.reg_factor, settings.reg_min)
         if not accepted:
@@ -361,6 +444,23 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                       timings=timings, log=log)
 
 
+TRUST_MIN = 1.0 / 64.0  # the adaptive trust region's smallest radius (of step_limit)
+
+
+def _adapted_radius(radius: float, entry: dict, limit, settings: ILQRSettings) -> float:
+    """The trust region's next radius after an accepted step (``trust_adapt``): doubled (up
+    to 1) when the model was good (actual / predicted > 0.75) and the step reached the
+    region's edge, quartered (down to TRUST_MIN) when it was poor (< 0.25)."""
+    if not settings.trust_adapt or limit is None or entry["predicted"] <= 0.0:
+        return radius
+    ratio = entry["actual"] / entry["predicted"]
+    if ratio < 0.25:
+        return max(radius / 4.0, TRUST_MIN)
+    if ratio > 0.75 and entry["step_ratio"] >= 0.99:
+        return min(2.0 * radius, 1.0)
+    return radius
+
+
 def zero_nonfinite(*arrays: np.ndarray) -> int:
     """Sets the non-finite entries of the derivative arrays to 0 in place (a failed
     finite-difference evaluation: no known effect), returning how many there were; without
@@ -375,10 +475,13 @@ def zero_nonfinite(*arrays: np.ndarray) -> int:
 
 
 def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, difference=None,
-                 limit=None, entry=None, alpha0: float = 1.0):
-    """First step size alpha0, alpha0/2, ... that lowers the objective, closed loop, then (with
-    ``open_loop_fallback``) open loop: (xs, us, terms, total) or None. ``entry`` (a log
-    dict) receives the accepted alpha, the actual decrease and the forward passes tried."""
+                 limit=None, entry=None, alpha0: float = 1.0, model=(0.0, 0.0)):
+    """First step size alpha0, alpha0/2, ... that lowers the objective (by at least
+    ``accept_ratio`` of the model's decrease at that size, -(alpha d1 + alpha^2 d2) from
+    ``model`` = (d1, d2)), closed loop, then (with ``open_loop_fallback``) open loop: (xs,
+    us, terms, total) or None. ``entry`` (a log dict) receives the accepted alpha, the actual
+    and predicted decrease, the largest control change (also as a fraction of ``limit``) and
+    the forward passes tried."""
     entry = entry if entry is not None else {}
     gains = [K, np.zeros_like(K)] if settings.open_loop_fallback else [K]
     if not settings.feedback:
@@ -397,10 +500,14 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
                     continue
                 terms = cost.terms(new_xs, new_us)
                 new_total = float(sum(terms.values()))
-                if new_total < total:
-                    entry.update(alpha=alpha, actual=total - new_total,
+                predicted = -(alpha * model[0] + alpha ** 2 * model[1])
+                if new_total < total and total - new_total >= settings.accept_ratio * predicted:
+                    change = np.abs(new_us - us)
+                    entry.update(alpha=alpha, actual=total - new_total, predicted=predicted,
                                  open_loop=gain is not K,
-                                 step=float(np.max(np.abs(new_us - us), initial=0.0)))
+                                 step=float(np.max(change, initial=0.0)),
+                                 step_ratio=(0.0 if limit is None else
+                                             float(np.max(change / limit, initial=0.0))))
                     return new_xs, new_us, terms, new_total
     return None
 

@@ -146,7 +146,7 @@ def test_known_blocks_match_fresh_differences(point10):
 def test_stride_differentiates_fewer_knots(point10):
     dynamics, xs, us = point10
     A1, B1 = dynamics.linearize_tangent(xs, us)
-    strided = _with_config(dynamics, derivative_stride=4)
+    strided = _with_config(dynamics, derivative_stride=4, stride_quiet_only=False)
     A4, B4 = strided.linearize_tangent(xs, us)
     knots = differentiated_knots(len(us), 4)
     assert strided.stats.differentiated_knots == len(knots) < len(us)
@@ -160,6 +160,33 @@ def test_stride_differentiates_fewer_knots(point10):
     A4_again, _ = strided.linearize_tangent(xs, us)
     assert strided.stats.differentiated_knots == len(knots)
     assert max(_rel(A4_again[t], A4[t]) for t in knots) < 2e-3
+
+
+def test_stride_skips_only_quiet_knots(point10):
+    """With stride_quiet_only, every knot where the arm touches a kept box or a box moves is
+    differentiated as at stride 1; the stride knots too; the rest are interpolated."""
+    from drake_clutter.phi.derivatives import active_knots
+
+    dynamics, xs, us = point10
+    A1, _ = dynamics.linearize_tangent(xs, us)
+    steps = [dynamics.phi.step_full(xs[t], us[t]) for t in range(len(us))]
+    active = active_knots(dynamics.layout, steps, dynamics.config.quiet_speed)
+    touching = [t for t in range(len(us)) if any(0 in e and min(e) >= 0 and max(e) > 0
+                                                  for e in steps[t][1])]
+    assert touching and set(touching) <= set(active)  # the reach pushes boxes
+    assert len(active) < len(us)  # the reach's first half is quiet
+    strided = _with_config(dynamics, derivative_stride=4, stride_quiet_only=True)
+    A4, _ = strided.linearize_tangent(xs, us)
+    knots = sorted(set(differentiated_knots(len(us), 4)) | set(active))
+    assert strided.stats.differentiated_knots == len(knots) < len(us)
+    assert strided.stats.active_knots == len(active)
+    for t in active:
+        assert _rel(A4[t], A1[t]) < 2e-3
+    quiet = next(t for t in range(len(us)) if t not in knots)
+    before = max(k for k in knots if k < quiet)
+    after = min(k for k in knots if k > quiet)
+    s = (quiet - before) / (after - before)
+    np.testing.assert_allclose(A4[quiet], (1 - s) * A4[before] + s * A4[after])
 
 
 def test_parallel_workers_give_the_serial_bits():

@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from drake_clutter.solvers.ilqr import Expansion, ILQRSettings, rollout, solve, zero_nonfinite
+from drake_clutter.solvers.ilqr import (
+    Expansion,
+    ILQRSettings,
+    box_qp_solve,
+    rollout,
+    solve,
+    zero_nonfinite,
+)
 
 
 class LinearDynamics:
@@ -499,3 +506,61 @@ def test_a_nan_derivative_entry_is_zeroed_counted_and_the_solve_still_descends()
     arrays = [np.array([1.0, np.inf]), np.array([[np.nan, 2.0]])]
     assert zero_nonfinite(*arrays) == 2
     assert arrays[0].tolist() == [1.0, 0.0] and arrays[1].tolist() == [[0.0, 2.0]]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_box_qp_matches_a_reference_solver(seed):
+    """Projected Newton against L-BFGS-B on random positive-definite 8 x 8 QPs whose bounds
+    cut the unconstrained minimiser, one entry pinned (its bounds meet at 0)."""
+    from scipy.optimize import minimize
+
+    rng = np.random.default_rng(seed)
+    M = rng.normal(size=(8, 8))
+    H = M @ M.T + 0.1 * np.eye(8)
+    g = rng.normal(size=8) * 3
+    lower, upper = -rng.uniform(0.05, 0.5, 8), rng.uniform(0.05, 0.5, 8)
+    lower[3] = upper[3] = 0.0
+    x, free = box_qp_solve(H, g, lower, upper)
+    known = minimize(lambda v: 0.5 * v @ H @ v + g @ v, np.zeros(8), jac=lambda v: H @ v + g,
+                     bounds=list(zip(lower, upper, strict=True)), method="L-BFGS-B",
+                     options={"ftol": 1e-16, "gtol": 1e-12, "maxiter": 10000}).x
+    np.testing.assert_allclose(x, known, atol=1e-6)
+    assert x[3] == 0.0 and not free[3]
+    assert np.all(x >= lower) and np.all(x <= upper)
+    grad = H @ x + g
+    np.testing.assert_allclose(grad[free], 0.0, atol=1e-9)  # stationary in the free entries
+
+
+def test_trust_bounds_make_the_prediction_describe_the_step():
+    """Far from an LQR optimum with a trust region: clipped after the policy, the model's
+    predicted decrease is of a step never taken (the actual is a fraction of it); as bounds of
+    the backward pass's box QP, the first step's prediction is exact and no control moves by
+    more than the region."""
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=2)
+    x0 = 5.0 * x0
+    problem = (LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)))
+    clip = solve(*problem, ILQRSettings(max_iterations=1, step_limit=(0.5, 0.5)))
+    bounded = solve(*problem, ILQRSettings(max_iterations=1, step_limit=(0.5, 0.5),
+                                           box_qp=True, trust_bounds=True))
+    (c,), (b,) = clip.log, bounded.log
+    assert c["actual"] < 0.5 * c["predicted"]
+    assert b["actual"] == pytest.approx(b["predicted"], rel=1e-9)
+    assert np.abs(bounded.us).max() <= 0.5 + 1e-12
+
+
+def test_the_trust_region_shrinks_on_a_poor_model_and_accept_ratio_refuses_small_gains():
+    """With a wrong state Jacobian the model overpromises: the adaptive region shrinks below
+    its start; a step whose decrease is under accept_ratio of the prediction is refused."""
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=3)
+    wrong = WrongA(A, B, 0.5 * np.random.default_rng(0).normal(size=A.shape))
+    settings = ILQRSettings(max_iterations=15, step_limit=(1.0, 1.0), box_qp=True,
+                            trust_bounds=True, trust_adapt=True)
+    result = solve(wrong, QuadraticCost(Q, R, Qf), 3.0 * x0, np.zeros((T, 2)), settings)
+    radii = [e["radius"] for e in result.log]
+    assert min(radii) < 1.0
+    assert np.all(np.diff(result.cost_history) <= 0)
+    strict = solve(wrong, QuadraticCost(Q, R, Qf), 3.0 * x0, np.zeros((T, 2)),
+                   ILQRSettings(max_iterations=15, accept_ratio=0.9))
+    for e in strict.log:
+        if e["alpha"] > 0:
+            assert e["actual"] >= 0.9 * e["predicted"]

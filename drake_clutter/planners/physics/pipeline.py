@@ -135,14 +135,15 @@ def solver_settings(config: Config, iterations: int, knot_time: float | None = N
     cfg = config.physics
     settings = ilqr.ILQRSettings(max_iterations=iterations, tolerance=cfg.tolerance,
                                  u_min=lo, u_max=hi, line_search_steps=cfg.line_search_steps,
-                                 adaptive_step=cfg.adaptive_step)
+                                 adaptive_step=cfg.adaptive_step, box_qp=cfg.box_qp)
     if knot_time is None:
         return settings
-    limit = cfg.step_limit_fraction * max_steps(cfg, knot_time)
+    limit = tuple(float(v) for v in cfg.step_limit_fraction * max_steps(cfg, knot_time))
     return replace(settings, open_loop_fallback=cfg.open_loop_fallback, cost_floor=0.0,
                    max_failed_searches=cfg.max_failed_searches, min_step=cfg.min_step,
-                   feedback=cfg.feedback,
-                   step_limit=tuple(float(v) for v in limit))
+                   feedback=cfg.feedback, step_limit=limit, trust_bounds=cfg.trust_bounds,
+                   trust_adapt=cfg.trust_adapt, accept_ratio=cfg.accept_ratio,
+                   reg_scale=limit if cfg.scaled_regulariser else None)
 
 
 def _stage_record(result: ilqr.ILQRResult, seconds: float, extra: dict | None = None) -> dict:
@@ -394,6 +395,7 @@ def check_config(config: Config) -> None:
               ("pre_w_vel", cfg.pre_w_vel is None or cfg.pre_w_vel >= 0,
                "non-negative (or null: the baseline's w_vel)"),
               ("step_limit_fraction", cfg.step_limit_fraction > 0, "positive"),
+              ("accept_ratio", 0 <= cfg.accept_ratio < 1, "in [0, 1)"),
               ("max_spectral_radius", cfg.max_spectral_radius > 0, "positive"),
               ("post_variant", cfg.post_variant in pr2.VARIANTS,
                f"one of {', '.join(pr2.VARIANTS)}"))

@@ -735,6 +735,10 @@ def test_bad_physics_config_is_a_config_error(scene):
         plan_physics(scene, load_config(None, ["physics.step_limit_fraction=0"]), [])
     with pytest.raises(ConfigError, match="physics.hold_derivative_stride"):
         plan_physics(scene, load_config(None, ["physics.hold_derivative_stride=0"]), [])
+    with pytest.raises(ConfigError, match="physics.accept_ratio"):
+        plan_physics(scene, load_config(None, ["physics.accept_ratio=1"]), [])
+    with pytest.raises(ConfigError, match="dynamics.quiet_speed"):
+        plan_physics(scene, load_config(None, ["dynamics.quiet_speed=-1"]), [])
     with pytest.raises(ConfigError, match="dynamics.derivative_method"):
         plan_physics(scene, load_config(None, ["world.contact_approximation=similar"]), [])
 

@@ -462,6 +462,8 @@ class PhysicsConfig:
     open_loop_fallback: bool = False
     # phi stages' forward passes feed back K (x - x_bar), flag; ours
     feedback: bool = True
+    # state the phi stages feed back ("all", or "arm": not the boxes' chaotic part), choice; ours
+    feedback_state: Literal["all", "arm"] = "all"
     # smallest control move that keeps a phi stage going (0 = off), rad (m: opening); ours
     min_step: float = 1e-3
     # every stage's backward pass solves each knot's box-constrained QP (Tassa 2014), flag; ours

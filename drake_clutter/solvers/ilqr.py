@@ -118,6 +118,8 @@ class ILQRSettings:
     # amplifies its errors)
     feedback: bool = True  # the forward pass feeds back K (x - x_bar); False: open loop
     # (K = 0) always, for dynamics whose state deviations are chaotic
+    feedback_mask: tuple[bool, ...] | None = None  # the (tangent) state coordinates the
+    # forward pass feeds back (None: all); the result's K keeps every column
     min_step: float = 0.0  # stop ("small_step") after an accepted step that changed no
     # control by more than this (its largest |u - u_bar|); 0: no such rule
     box_qp: bool = False  # the backward pass solves each knot's box-constrained QP (bounds,
@@ -483,6 +485,8 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
     and predicted decrease, the largest control change (also as a fraction of ``limit``) and
     the forward passes tried."""
     entry = entry if entry is not None else {}
+    if settings.feedback_mask is not None:  # feed back only the chosen state coordinates
+        K = K * np.asarray(settings.feedback_mask, dtype=float)[None, None, :]
     gains = [K, np.zeros_like(K)] if settings.open_loop_fallback else [K]
     if not settings.feedback:
         gains = [np.zeros_like(K)]

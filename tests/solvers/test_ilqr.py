@@ -564,3 +564,23 @@ def test_the_trust_region_shrinks_on_a_poor_model_and_accept_ratio_refuses_small
     for e in strict.log:
         if e["alpha"] > 0:
             assert e["actual"] >= 0.9 * e["predicted"]
+
+
+def test_a_feedback_mask_feeds_back_only_its_coordinates():
+    """With a mask, the forward pass's gains are K with the unmasked columns zero: masking
+    every coordinate is the open-loop solve, masking none the closed-loop one."""
+    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=5)
+    wrong = WrongA(A, B, 0.3 * np.random.default_rng(1).normal(size=A.shape))
+    cost = QuadraticCost(Q, R, Qf)
+    run = {}
+    for name, extra in {"closed": {}, "open": {"feedback": False},
+                        "all": {"feedback_mask": (True,) * 4},
+                        "none": {"feedback_mask": (False,) * 4},
+                        "half": {"feedback_mask": (True, True, False, False)}}.items():
+        run[name] = solve(wrong, cost, x0, np.zeros((T, 2)),
+                          ILQRSettings(max_iterations=5, **extra))
+    np.testing.assert_array_equal(run["all"].us, run["closed"].us)
+    np.testing.assert_array_equal(run["none"].us, run["open"].us)
+    assert not np.array_equal(run["half"].us, run["closed"].us)
+    assert not np.array_equal(run["half"].us, run["open"].us)
+    assert np.abs(run["none"].K).max() > 0  # the result keeps the full gains

@@ -146,6 +146,16 @@ def solver_settings(config: Config, iterations: int, knot_time: float | None = N
                    reg_scale=limit if cfg.scaled_regulariser else None)
 
 
+def arm_feedback_mask(augmented: AugmentedPhi) -> tuple[bool, ...]:
+    """The tangent coordinates of z = [x, q^(t-1)] that are the arm's (q^t, the first 8 of x,
+    and q^(t-1)): deviations there are the controls' own (the arm is kinematic), the boxes'
+    are chaotic in contact."""
+    mask = np.zeros(augmented.ndx + ARM_DIM, dtype=bool)
+    mask[:ARM_DIM] = True
+    mask[augmented.ndx:] = True
+    return tuple(bool(m) for m in mask)
+
+
 def _stage_record(result: ilqr.ILQRResult, seconds: float, extra: dict | None = None) -> dict:
     return {"iterations": result.iterations, "stop_reason": str(result.stop_reason),
             "seconds": seconds, "cost_history": [float(c) for c in result.cost_history],
@@ -212,8 +222,10 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
             raise PhiFailure("phi failed on the initial rollout")
         q = starts[int(np.argmin(values))]
         bounds = knot_bounds(q, min_final_opening=min_opening)
-        result = ilqr.solve(augmented, objective, z0, q[1:],
-                            solver_settings(config, iterations, knot_time, bounds),
+        settings = solver_settings(config, iterations, knot_time, bounds)
+        if config.physics.feedback_state == "arm":
+            settings = replace(settings, feedback_mask=arm_feedback_mask(augmented))
+        result = ilqr.solve(augmented, objective, z0, q[1:], settings,
                             difference=augmented.difference)
         info = {"kept_boxes": list(augmented.layout.box_names),
                 "pruning": problem.report.summary(),

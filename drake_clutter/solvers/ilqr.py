@@ -30,7 +30,12 @@ safeguards are optional: a trust region on the controls (``step_limit``: no cont
 more than its limit per forward pass, feedback included) and an open-loop retry of the line
 search (``open_loop_fallback``: K = 0, so errors in A are not fed back), and ``cost_floor``:
 a model that predicts a decrease below a known lower bound of the objective is rejected
-without a rollout (mu is raised). ``ILQRResult.log``
+without a rollout (mu is raised). Options that make the model describe the step taken:
+``box_qp`` (each knot's step minimises the model within the bounds, `box_qp_solve`),
+``trust_bounds`` (the trust region is a bound of that QP, not only a clip after the policy),
+``trust_adapt`` (its radius follows the accepted steps' actual / predicted decrease),
+``accept_ratio`` (a ratio test), ``reg_scale`` (mu diag(s^2) for controls in mixed units) and
+``feedback_mask`` (feed back only some state coordinates). ``ILQRResult.log``
 records every backward pass: regulariser, predicted and actual decrease, step size. Stop rules:
 the iteration cap, a relative decrease below ``tolerance``, the regulariser exceeding
 ``reg_max``, ``max_failed_searches`` failed line searches in one iteration, or an accepted

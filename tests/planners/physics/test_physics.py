@@ -678,6 +678,35 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate):
     assert np.all(q[1:] >= np.array(lo) - 1e-12) and np.all(q[1:] <= np.array(hi) + 1e-12)
 
 
+def test_the_model_repairs_run_through_every_stage(scene, fig5_candidate):
+    """Box QP, the trust region as QP bounds adapted by actual/predicted, the scaled
+    regulariser, arm-only feedback and contact knots differentiated despite the stride: the
+    pipeline still plans, every accepted phi-stage step logs its model's decrease at its step
+    size (positive) and the radius it was taken with, and no control leaves its bounds."""
+    from drake_clutter.common.config import load_config
+    from drake_clutter.planners.physics.pipeline import control_bounds, plan_physics
+
+    config = load_config(None, ["physics.iterations=3", "physics.sphere_iterations=1",
+                                "physics.pre_iterations=2", "physics.post_iterations=2",
+                                "dynamics.workers=0", "dynamics.derivative_stride=4",
+                                "dynamics.stride_quiet_only=true", "physics.box_qp=true",
+                                "physics.trust_bounds=true", "physics.trust_adapt=true",
+                                "physics.scaled_regulariser=true",
+                                "physics.feedback_state=arm"])
+    (plan,) = plan_physics(scene, config, [fig5_candidate])
+    assert plan.ok, plan.reason
+    for name in ("sphere", "full"):
+        stage = plan.details["stages"][name]
+        assert np.all(np.diff(stage["cost_history"]) <= 0)
+        for entry in stage["log"]:
+            assert 1 / 64 <= entry["radius"] <= 1.0
+            if entry["alpha"] > 0:
+                assert entry["predicted"] > 0 and entry["actual"] > 0
+    lo, hi = control_bounds()
+    q = plan.trajectory.q
+    assert np.all(q[1:] >= np.array(lo) - 1e-12) and np.all(q[1:] <= np.array(hi) + 1e-12)
+
+
 def test_phi_stages_get_the_trust_region_and_kinematic_ones_do_not():
     from drake_clutter.common.config import load_config
     from drake_clutter.planners.physics.objective import max_steps

@@ -745,6 +745,39 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
                                       1, None, None)
 
 
+def test_select_path_takes_the_lowest_objective_ties_to_the_first(monkeypatch):
+    """`select_path` on a fake phi: the lowest objective wins, a tie goes to the earlier name,
+    a path phi cannot roll out (inf) is reported as None and never chosen over a finite one,
+    and when phi fails on every path the first is kept."""
+    from contextlib import contextmanager
+    from types import SimpleNamespace
+
+    from drake_clutter.common.config import Config
+    from drake_clutter.planners.physics import pipeline as physics
+
+    pruned_for = []
+
+    @contextmanager
+    def problem(scene, q, config, variant, pool, knot_time, approach, also=()):
+        pruned_for.append(1 + len(also))
+        yield SimpleNamespace(augmented=None, objective=None, z0=None,
+                              report=SimpleNamespace(summary=lambda: "kept 0 of 0 boxes"))
+
+    values = {}
+    monkeypatch.setattr(physics, "stage_problem", problem)
+    monkeypatch.setattr(physics, "_path_objective", lambda d, o, z, q: values[q[0, 0]])
+    paths = {name: np.full((3, 8), float(i)) for i, name in enumerate(("post", "pre", "baseline"))}
+    values.update({0.0: 5.0, 1.0: 3.0, 2.0: 3.0})
+    chosen, info = physics.select_path(None, paths, Config())
+    assert chosen == "pre" and info["objectives"] == {"post": 5.0, "pre": 3.0, "baseline": 3.0}
+    assert pruned_for == [3]  # one phi pruned for all three paths
+    values.update({0.0: float("inf"), 1.0: float("inf"), 2.0: 7.0})
+    chosen, info = physics.select_path(None, paths, Config())
+    assert chosen == "baseline" and info["objectives"]["post"] is None
+    values.update({2.0: float("inf")})
+    assert physics.select_path(None, paths, Config())[0] == "post"
+
+
 def test_failed_candidates_pass_through(scene):
     from drake_clutter.common.config import Config
     from drake_clutter.planners.physics.pipeline import plan_physics

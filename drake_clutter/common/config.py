@@ -467,15 +467,15 @@ class PhysicsConfig:
     # smallest control move that keeps a phi stage going (0 = off), rad (m: opening); ours
     min_step: float = 1e-3
     # every stage's backward pass solves each knot's box-constrained QP (Tassa 2014), flag; ours
-    box_qp: bool = False
+    box_qp: bool = True
     # the phi stages' trust region bounds the backward pass's QP, not only clips, flag; ours
-    trust_bounds: bool = False
+    trust_bounds: bool = True
     # the phi stages' trust region adapts to actual / predicted decrease, flag; ours
-    trust_adapt: bool = False
+    trust_adapt: bool = True
     # least actual / predicted decrease of an accepted phi-stage step (0: any), unitless; ours
     accept_ratio: float = 0.0
     # the phi stages' regulariser is scaled per control by its trust-region step, flag; ours
-    scaled_regulariser: bool = False
+    scaled_regulariser: bool = True
 
 
 @dataclass(frozen=True)

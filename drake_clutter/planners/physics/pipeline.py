@@ -212,7 +212,7 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
     ``approach``: the final approach direction in W of c_approach
     (`PhysicsConfig.approach_knots`); ``min_opening``: the last knot's least gripper opening
     (m, `knot_bounds`)."""
-    knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+    knot_time = _knot_time(times, config)
     with stage_problem(scene, q, config, variant, pool, knot_time, approach,
                        also=tuple(alternatives)) as problem:
         augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
@@ -252,6 +252,11 @@ def _path_objective(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.
     return float("inf") if terms is None else float(sum(terms.values()))
 
 
+def _knot_time(times: np.ndarray | None, config: Config) -> float:
+    """The knots' spacing (s): of ``times``, else ``baseline.knot_time``."""
+    return float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+
+
 def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
                 times: np.ndarray | None = None, approach: np.ndarray | None = None
                 ) -> tuple[str, dict]:
@@ -259,7 +264,7 @@ def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool
     full stage (capsule arm, hold tail) in one phi pruned for all ``paths``, and what was
     measured: each path's objective (inf where phi fails) and the pruning. Ties go to the
     earlier name; when phi fails on every path, the first."""
-    knot_time = float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+    knot_time = _knot_time(times, config)
     names = list(paths)
     first, *others = (paths[n] for n in names)
     with stage_problem(scene, first, config, "capsules", pool, knot_time, approach,

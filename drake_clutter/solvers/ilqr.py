@@ -234,8 +234,7 @@ def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
         else:
             free = np.ones(nu, dtype=bool)
             if us is not None:  # controls pinned on a bound with the gradient pushing outwards
-                free &= ~(((us[t] <= lo[t]) & (qu > 0)) | ((us[t] >= hi[t]) & (qu < 0))
-                          | (lo[t] >= hi[t]))
+                free = ~_held(us[t], qu, lo[t], hi[t])
         # Held controls stay put (k = 0, K = 0); the free ones solve their own block, so the
         # step is the minimiser of the model over the free controls (the predicted decrease is
         # then never negative; zeroing rows of the full solution could make it so).
@@ -269,8 +268,7 @@ def box_qp_solve(H: np.ndarray, g: np.ndarray, lower: np.ndarray, upper: np.ndar
     free = np.ones(n, dtype=bool)
     for _ in range(iterations):
         grad = g + H @ x
-        clamped = (((x <= lower) & (grad > 0)) | ((x >= upper) & (grad < 0))
-                   | (lower >= upper))
+        clamped = _held(x, grad, lower, upper)
         free = ~clamped
         if not free.any():
             break
@@ -297,9 +295,13 @@ def box_qp_solve(H: np.ndarray, g: np.ndarray, lower: np.ndarray, upper: np.ndar
         x, value = trial, trial_value
         if moved < 1e-12:
             break
-    grad = g + H @ x
-    free = ~(((x <= lower) & (grad > 0)) | ((x >= upper) & (grad < 0)) | (lower >= upper))
-    return x, free
+    return x, ~_held(x, g + H @ x, lower, upper)
+
+
+def _held(x: np.ndarray, grad: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """The entries of x held on a bound: at it with the gradient pushing outwards, or with
+    bounds that meet."""
+    return ((x <= lower) & (grad > 0)) | ((x >= upper) & (grad < 0)) | (lower >= upper)
 
 
 def _psd(M: np.ndarray) -> np.ndarray:

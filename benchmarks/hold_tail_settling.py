@@ -29,6 +29,7 @@ import numpy as np
 from drake_clutter.common.config import ConfigError, load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE
 from drake_clutter.experiments.specs import load_spec
+from drake_clutter.phi.derivatives import box_speeds
 from drake_clutter.phi.dynamics import box_state_to_pose
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.baseline import plan_baseline
@@ -54,9 +55,7 @@ def _settled_knot(layout, xs: np.ndarray, x0: np.ndarray, quiet_speed: float) ->
     """The first index k such that every state from k on has every box quiet or fallen."""
     quiet = []
     for x in xs:
-        boxes = layout.boxes(x)
-        speed = np.linalg.norm(boxes[:, 10:13], axis=1) + 0.1 * np.linalg.norm(boxes[:, 7:10],
-                                                                              axis=1)
+        speed = box_speeds(layout, x)
         _, drops = _tilts_and_drops(layout, x, x0)
         moving = (speed > quiet_speed) & (drops < FALLEN_DROP)
         quiet.append(not moving.any())

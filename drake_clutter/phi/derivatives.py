@@ -442,12 +442,17 @@ def active_knots(layout, steps, quiet_speed: float) -> list[int]:
     out = []
     for t, (x_next, edges, _) in enumerate(steps):
         touching = any(ARM_NODE in e and min(e) >= 0 and max(e) > ARM_NODE for e in edges)
-        boxes = layout.boxes(x_next)
-        speed = (np.linalg.norm(boxes[:, 10:13], axis=1) + 0.1 * np.linalg.norm(boxes[:, 7:10],
-                                                                               axis=1))
+        speed = box_speeds(layout, x_next)
         if touching or (len(speed) and float(speed.max()) > quiet_speed):
             out.append(t)
     return out
+
+
+def box_speeds(layout, x: np.ndarray) -> np.ndarray:
+    """Each kept box's |v| + 0.1 m x |w| in state x (m/s; W frame): what `active_knots`
+    compares with ``quiet_speed``."""
+    boxes = layout.boxes(x)
+    return np.linalg.norm(boxes[:, 10:13], axis=1) + 0.1 * np.linalg.norm(boxes[:, 7:10], axis=1)
 
 
 def differentiated_knots(num_knots: int, stride: int) -> list[int]:

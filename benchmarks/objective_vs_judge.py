@@ -1,35 +1,50 @@
 #!/usr/bin/env python3
-"""Does phi's objective grade plans as the Bullet judge does?
+"""Does phi's objective (one rollout, or an ensemble of K) grade plans as the judge does?
 
     python benchmarks/objective_vs_judge.py --db RUN.db [--db RUN2.db ...]
-        [--configurations NAME ...] [--set FIELD=VALUE ...] [--rejudge]
+        [--configurations NAME ...] [--scenes NAME ...] [--set FIELD=VALUE ...] [--robust] [--members 1 4 8]
+        [--jobs 2] [--cache FILE.jsonl] [--rejudge]
 
 The physics planner can only beat the baseline in Bullet if a lower objective in phi means a
-better grade there. This takes every stored plan of a shipped scene in the experiment stores
-(both planners, every configuration; a plan stored twice, such as the same baseline in two
-stores, is rolled out once), rolls it out in phi with every box dynamic (no pruning, so all
-plans of a scene meet the same boxes) and prices it with the full stage's objective (Table I
-with the Table II weights, the capsule arm and the held knots after Delta: what the planner
-minimises last), with ``--set`` overrides on the defaults. The grade is the stored one
-(`judge.behaviour_grade`: Sec. VI-A's class, then boxes tipped or fallen), or with
-``--rejudge`` that of a fresh Bullet replay under the configuration's ``evaluation`` section
-(e.g. ``--set evaluation.solver_iterations=50 --rejudge``: is a judge that resolves friction
-better closer to phi?).
+better grade there. This takes every stored plan of the experiment stores (both planners,
+every configuration, shipped and generated scenes; a plan stored twice, such as the same
+baseline in two stores, is priced once), rolls it out in phi with every box dynamic (no
+pruning, so all plans of a scene meet the same boxes) and prices it with the full stage's
+objective (Table I with the Table II weights, the capsule arm and the held knots after Delta:
+what the planner minimises last), with ``--set`` overrides on the defaults.
 
-Printed: one line per plan (its grade and objective); then, over every two plans of the same
-initialization (scene and angle) whose grades differ, how often each term and the total order
-them as the judge does (agree / disagree; ties in the term are left out) - about half and half
-is a coin; and per store and configuration, the physics plans whose objective is below their
-baseline's, split by the stored verdict (better / same / worse).
+With ``--members`` the plan is priced in the first max(K) members of phi's ensemble
+(`planners.physics.ensemble`: member 0 the scene, the others perturbed boxes with seeds
+``[ensemble.seed, k]``, member 1 with Bullet's friction pairing), and the agreement is printed
+for each K listed and each risk measure (mean, mean + std, CVaR of the worst half); the terms
+are the members' means. Every plan of a scene meets the same members.
+
+The judge's grade is the stored one (`judge.behaviour_grade`: Sec. VI-A's class, then boxes
+tipped or fallen); with ``--robust`` the stored robust judge's (its K replays' mean class,
+then mean boxes tipped or fallen; rows without robust replays are left out); with
+``--rejudge`` that of a fresh nominal Bullet replay under ``evaluation``.
+
+Printed: one line per plan; then, over every two plans of the same initialization (scene and
+angle) whose grades differ, how often each term and the total order them as the judge does
+(agree / disagree; ties in the term are left out) with a 95 % Wilson interval of the agreement
+- about half and half is a coin; with ``--robust`` also over the pairs whose P(success)
+differs; and per store and configuration, the physics plans whose objective is below their
+baseline's, split by the verdict (better / same / worse). ``--cache`` keeps each priced plan
+(one JSON line), so a stopped run resumes where it stopped.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
 import itertools
+import json
+import math
 import sys
 from collections import Counter, defaultdict
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -38,71 +53,111 @@ from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.evaluation.judge import evaluate
 from drake_clutter.evaluation.outcome import outcome_grade
 from drake_clutter.experiments.report import row_grade, verdict
+from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store
-from drake_clutter.planners.physics.pipeline import path_terms
-from drake_clutter.planners.physics.stage import stage_problem
-from drake_clutter.scene import scenes
+from drake_clutter.planners.physics.ensemble import member_terms, risk_score
 from drake_clutter.trajectory import Trajectory
 
 EVERY_BOX = 100.0  # m, a prune margin that keeps every box of a shelf dynamic in phi
+RISKS = ("mean", "mean_std", "cvar")
 
 
-def stored_plans(dbs: list[str], configurations: list[str]) -> list[dict]:
-    """One dict per distinct stored plan of a shipped scene: scene, angle, trajectory, grade
-    and the rows it came from ([(store, configuration, planner)])."""
-    shipped, plans = set(scenes.shipped_scene_names()), {}
+def _robust_grade(row: dict) -> tuple[float, float] | None:
+    """(mean class, mean boxes tipped or fallen) over a row's robust replays, or None."""
+    robust = (row.get("outcome") or {}).get("robust")
+    if not row.get("robust_replays") or not robust:
+        return None
+    grades = np.asarray(robust["grades"], float)
+    return float(grades[:, 0].mean()), float(grades[:, 1].mean())
+
+
+def stored_plans(dbs: list[str], configurations: list[str], robust: bool) -> list[dict]:
+    """One dict per distinct stored plan: scene, angle, trajectory, grade, p_success (robust
+    rows) and the rows it came from ([(store, configuration, planner)])."""
+    plans = {}
     for db in dbs:
         with Store(db, create=False) as store:
             rows = store.rows()
         for r in rows:
-            if (r["scene"] not in shipped or not (r["plan"] or {}).get("trajectory")
+            if (not (r["plan"] or {}).get("trajectory")
                     or (configurations and r["config_name"] not in configurations)):
                 continue
+            grade = _robust_grade(r) if robust else row_grade(r)
+            if grade is None:
+                continue
             trajectory = Trajectory.from_data(r["plan"]["trajectory"])
-            key = (r["scene"], r["angle"], trajectory.q.tobytes())
+            digest = hashlib.sha1(np.ascontiguousarray(trajectory.q).tobytes()).hexdigest()
+            key = (r["scene"], r["angle"], digest)
             plan = plans.setdefault(key, {"scene": r["scene"], "angle": r["angle"],
-                                          "trajectory": trajectory, "grade": row_grade(r),
-                                          "rows": []})
+                                          "key": "|".join(map(str, key)),
+                                          "trajectory": trajectory, "grade": grade,
+                                          "p_success": r.get("p_success"), "rows": []})
             plan["rows"].append((db, r["config_name"], r["planner"]))
     return list(plans.values())
 
 
-def objective_terms(scene, q: np.ndarray, config) -> dict[str, float] | None:
-    """The full stage's objective of the knot path ``q`` per Table I term, every box dynamic
-    in phi; None where phi cannot roll it out (a non-finite state or a Drake error: such a
-    plan is reported and left out of the counts)."""
-    try:
-        with stage_problem(scene, q, config, "capsules") as problem:
-            return path_terms(problem.augmented, problem.objective, problem.z0, q)
-    except (RuntimeError, ValueError):  # Drake's solver errors
+def price(job: tuple) -> list[dict | None]:
+    """The full stage's terms of one knot path in members 0..members-1 (None where phi
+    fails), every box dynamic."""
+    scene_name, q, config, members = job
+    scene = stored_scene(scene_name, config)
+    return [member_terms(scene, {"plan": q}, config, k)["plan"] for k in range(members)]
+
+
+def _total(terms: dict) -> float:
+    return float(sum(terms.values()))
+
+
+def score(plan: dict, term: str, members: int, risk: str, config) -> float | None:
+    """The plan's ensemble score of ``term`` ('total' or a Table I term; terms by their
+    members' mean) over its first ``members`` members; None where phi failed."""
+    per = plan["members"][:members]
+    if any(t is None for t in per):
         return None
+    if term != "total":
+        return float(np.mean([t[term] for t in per]))
+    return risk_score([_total(t) for t in per], replace(config.ensemble, risk=risk))
 
 
-def order_agreement(plans: list[dict]) -> dict[str, Counter]:
+def wilson(agree: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson score interval of a proportion agree / n."""
+    if n == 0:
+        return float("nan"), float("nan")
+    p = agree / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def order_agreement(plans: list[dict], label: str, terms: list[str], members: int, risk: str,
+                    config) -> dict[str, Counter]:
     """Per term (and 'total'): Counter(agree=, disagree=) over the pairs of plans of one
-    initialization whose grades differ."""
+    initialization whose ``label`` ('grade' or 'p_success'; a higher P(success) is better)
+    differs."""
     groups, out = defaultdict(list), defaultdict(Counter)
     for p in plans:
-        if p["terms"] is not None:
+        if all(t is not None for t in p["members"][:members]):
             groups[(p["scene"], p["angle"])].append(p)
     for group in groups.values():
         for a, b in itertools.combinations(group, 2):
-            if a["grade"] == b["grade"]:
+            la, lb = _label(a, label), _label(b, label)
+            if la == lb:
                 continue
-            for term in [*a["terms"], "total"]:
-                va, vb = _value(a, term), _value(b, term)
+            for term in terms:
+                va, vb = (score(a, term, members, risk, config),
+                          score(b, term, members, risk, config))
                 if va != vb:
-                    out[term]["agree" if (va < vb) == (a["grade"] < b["grade"]) else
-                              "disagree"] += 1
+                    out[term]["agree" if (va < vb) == (la < lb) else "disagree"] += 1
     return out
 
 
-def _value(plan: dict, term: str) -> float:
-    return sum(plan["terms"].values()) if term == "total" else plan["terms"][term]
+def _label(plan: dict, label: str) -> tuple:
+    """The judge's verdict on a plan as a tuple that sorts better first."""
+    return (-plan["p_success"],) if label == "p_success" else tuple(plan["grade"])
 
 
-def physics_below_baseline(plans: list[dict]) -> dict[tuple[str, str], Counter]:
-    """Per (store, configuration): Counter of (objective below the baseline's?, verdict) over
+def physics_below_baseline(plans: list[dict], members: int, config) -> dict:
+    """Per (store, configuration): Counter of (score below the baseline's?, verdict) over
     the physics plans with a baseline plan of the same initialization."""
     by_row = {}
     for p in plans:
@@ -111,11 +166,60 @@ def physics_below_baseline(plans: list[dict]) -> dict[tuple[str, str], Counter]:
     out = defaultdict(Counter)
     for (db, config_name, planner, scene, angle), p in by_row.items():
         base = by_row.get((db, config_name, "baseline", scene, angle))
-        if planner != "physics" or base is None or None in (p["terms"], base["terms"]):
+        if planner != "physics" or base is None:
             continue
-        below = _value(p, "total") < _value(base, "total")
-        out[(db, config_name)][(below, verdict(p["grade"], base["grade"]))] += 1
+        sp, sb = (score(p, "total", members, "mean", config),
+                  score(base, "total", members, "mean", config))
+        if sp is None or sb is None:
+            continue
+        out[(db, config_name)][(sp < sb, verdict(tuple(p["grade"]), tuple(base["grade"])))] += 1
     return out
+
+
+def _load_cache(path: Path | None) -> dict[str, list]:
+    if path is None or not path.exists():
+        return {}
+    out = {}
+    for line in path.read_text().splitlines():
+        if line.strip():
+            entry = json.loads(line)
+            out[entry["key"]] = entry["members"]
+    return out
+
+
+def price_all(plans: list[dict], config, members: int, jobs: int, cache: Path | None) -> None:
+    """Fills each plan's 'members' (its terms in members 0..members-1), reusing and extending
+    the cache file."""
+    done = _load_cache(cache)
+    todo = [p for p in plans if len(done.get(p["key"], [])) < members]
+    for p in plans:
+        if p not in todo:
+            p["members"] = done[p["key"]][:members]
+    work = [(p["scene"], np.asarray(p["trajectory"].q, float), config, members) for p in todo]
+    with ProcessPoolExecutor(max_workers=jobs) as pool:
+        for p, result in zip(todo, pool.map(price, work)):
+            p["members"] = result
+            if cache is not None:
+                with cache.open("a") as f:
+                    f.write(json.dumps({"key": p["key"], "members": result}) + "\n")
+            totals = ["failed" if t is None else f"{_total(t):.4g}" for t in result]
+            print(f"{p['scene']} angle {p['angle']} grade {p['grade']} objective "
+                  f"{' '.join(totals)} ({', '.join(f'{c}:{pl}' for _, c, pl in p['rows'])})",
+                  flush=True)
+
+
+def _print_agreement(plans, label, ks, config) -> None:
+    terms = sorted({k for p in plans for t in p["members"] if t for k in t})
+    for k in ks:
+        for risk in (RISKS if k > 1 else ("mean",)):
+            counts = order_agreement(plans, label, [*terms, "total"], k, risk, config)
+            print(f"  K = {k}, {risk}:")
+            for term in ([*terms, "total"] if risk == "mean" else ["total"]):
+                c = counts[term]
+                n = c["agree"] + c["disagree"]
+                lo, hi = wilson(c["agree"], n)
+                print(f"    {term:14} agree {c['agree']:4} of {n:4} "
+                      f"({c['agree'] / max(n, 1):.0%}, 95 % [{lo:.0%}, {hi:.0%}])")
 
 
 def main(argv=None) -> int:
@@ -124,37 +228,49 @@ def main(argv=None) -> int:
                         help="an experiment store whose plans to price (repeatable)")
     parser.add_argument("--configurations", nargs="+", default=[],
                         help="only these configurations' rows (default: all)")
+    parser.add_argument("--scenes", nargs="+", default=[], help="only these scenes' plans")
     parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
+    parser.add_argument("--robust", action="store_true",
+                        help="grade by the stored robust judge's replays")
+    parser.add_argument("--members", type=int, nargs="+", default=[1],
+                        help="ensemble sizes K to compare (default: 1, phi alone)")
+    parser.add_argument("--jobs", type=int, default=2, help="processes pricing plans")
+    parser.add_argument("--cache", type=Path, help="JSON-lines file of priced plans (resume)")
     parser.add_argument("--rejudge", action="store_true",
                         help="grade each plan by a fresh Bullet replay, not the stored grade")
     args = parser.parse_args(argv)
+    if min(args.members) < 1 or args.jobs < 1:
+        print("error: <command line>: --members and --jobs must be at least 1", file=sys.stderr)
+        return 2
     try:
         config = load_config(None, args.set)
-        plans = stored_plans(args.db, args.configurations)
+        plans = [p for p in stored_plans(args.db, args.configurations, args.robust)
+                 if not args.scenes or p["scene"] in args.scenes]
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     if not plans:
-        print(f"error: {', '.join(args.db)}: no stored plan of a shipped scene"
+        print(f"error: {', '.join(args.db)}: no stored plan"
+              + (" with robust replays" if args.robust else "")
               + (f" in configurations {', '.join(args.configurations)}"
                  if args.configurations else ""), file=sys.stderr)
         return 2
     config = replace(config, dynamics=replace(config.dynamics, prune_margin=EVERY_BOX))
-    cache = {}
-    for p in plans:
-        scene = cache.setdefault(p["scene"], scenes.load_shipped_scene(p["scene"]))
-        p["terms"] = objective_terms(scene, np.asarray(p["trajectory"].q, float), config)
-        if args.rejudge:
-            p["grade"] = outcome_grade(evaluate(scene, p["trajectory"], config.evaluation))
-        total = "phi failed" if p["terms"] is None else f"{_value(p, 'total'):.4g}"
-        print(f"{p['scene']} angle {p['angle']} grade {p['grade']} objective {total} "
-              f"({', '.join(f'{c}:{pl}' for _, c, pl in p['rows'])})", flush=True)
+    if args.rejudge:
+        for p in plans:
+            p["grade"] = outcome_grade(evaluate(stored_scene(p["scene"], config),
+                                                p["trajectory"], config.evaluation))
+    price_all(plans, config, max(args.members), args.jobs, args.cache)
+    ks = sorted(set(args.members))
     print(f"\n{len(plans)} plans; pairs of one initialization with different grades, "
           "ordered by phi as by the judge:")
-    for term, counts in order_agreement(plans).items():
-        print(f"  {term:10} agree {counts['agree']:4}  disagree {counts['disagree']:4}")
-    print("\nphysics plans with phi's objective below their baseline's, by verdict in Bullet:")
-    for (db, config_name), counts in physics_below_baseline(plans).items():
+    _print_agreement(plans, "grade", ks, config)
+    if args.robust:
+        print("\npairs of one initialization with different robust P(success):")
+        _print_agreement([p for p in plans if p["p_success"] is not None], "p_success", ks,
+                         config)
+    print("\nphysics plans with phi's mean objective below their baseline's, by verdict:")
+    for (db, config_name), counts in physics_below_baseline(plans, max(ks), config).items():
         cells = [f"{'below' if below else 'above'}: "
                  + " / ".join(str(counts[(below, v)]) for v in ("better", "same", "worse"))
                  for below in (True, False)]

@@ -479,6 +479,32 @@ class PhysicsConfig:
 
 
 @dataclass(frozen=True)
+class EnsembleConfig:
+    """phi's ensemble: a plan scored over K perturbed rollouts (beyond the paper): all ours."""
+
+    # members of phi's ensemble, the nominal scene first (1: phi alone), count; ours
+    members: int = 1
+    # seed of the members' worlds (member k draws from [seed, k]), integer; ours
+    seed: int = 1000
+    # half-range of each box's initial shift along x and y (uniform), m; ours
+    position: float = 0.003
+    # half-range of each box's initial yaw change (uniform; 3 deg), rad; ours
+    yaw: float = 0.05
+    # half-range of each box's relative mass change (uniform), unitless; ours
+    mass: float = 0.2
+    # half-range of each box's relative friction change (uniform), unitless; ours
+    friction: float = 0.2
+    # member 1 pairs friction as Bullet does (world.friction_as_bullet), flag; ours
+    bullet_friction_member: bool = True
+    # the score over members ("mean", "mean_std": mean + weight std, "cvar"), choice; ours
+    risk: Literal["mean", "mean_std", "cvar"] = "mean"
+    # lambda of the "mean_std" score, unitless; ours
+    risk_weight: float = 1.0
+    # worst fraction of the members the "cvar" score averages, unitless; ours
+    cvar_fraction: float = 0.5
+
+
+@dataclass(frozen=True)
 class VizConfig:
     """Meshcat replays of plans (beyond the paper): all ours."""
 
@@ -538,6 +564,8 @@ class Config:
     dynamics: DynamicsConfig = field(default_factory=DynamicsConfig)
     # the physics-based planner, section; Sec. V
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
+    # phi's ensemble of perturbed rollouts (beyond the paper), section; ours
+    ensemble: EnsembleConfig = field(default_factory=EnsembleConfig)
     # Meshcat replays of plans (beyond the paper), section; ours
     viz: VizConfig = field(default_factory=VizConfig)
     # statistics of the experiment report (beyond the paper), section; ours

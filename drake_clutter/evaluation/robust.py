@@ -8,24 +8,20 @@ box's initial position and yaw, mass and friction are moved by uniform draws wit
 (the generator is seeded with ``[robust_seed, k]``), whatever the plan: two planners' plans of
 one scene are compared in the same K worlds (common random numbers).
 
-A perturbed box that would overlap another box or leave the board (walls included) is drawn
-again, up to ``RETRIES`` times, then left at its nominal pose; its mass and friction are
-perturbed all the same. `RobustSummary` holds the K classes and grades and what they give:
-P(success), P(success or partial success), the expected grade class.
+The draw is `scene.perturbation.perturb_boxes` (a box that would overlap another or leave the
+board is drawn again, then left at its nominal pose). `RobustSummary` holds the K classes and
+grades and what they give: P(success), P(success or partial success), the expected grade class.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
-
-import numpy as np
+from dataclasses import dataclass
 
 from drake_clutter.common.config import ConfigError, EvaluationConfig
-from drake_clutter.scene.scenes import BoxObject, Scene, fits_on_shelf, footprints_overlap
-
-RETRIES = 20  # draws of a box's pose before it keeps its nominal one
+from drake_clutter.scene.perturbation import BoxPerturbation, perturb_boxes
+from drake_clutter.scene.scenes import Scene
 
 
 @dataclass(frozen=True)
@@ -97,36 +93,15 @@ def check_robust(config: EvaluationConfig, file: str = "<configuration>") -> Non
                               f"{getattr(config, name)}")
 
 
-def _moved(box: BoxObject, rng: np.random.Generator, config: EvaluationConfig) -> BoxObject:
-    x, y, yaw = box.pose
-    d = config.robust_position
-    return replace(box, pose=(x + rng.uniform(-d, d), y + rng.uniform(-d, d),
-                              yaw + rng.uniform(-config.robust_yaw, config.robust_yaw)))
-
-
 def perturbed_scene(scene: Scene, config: EvaluationConfig, replay: int) -> Scene:
     """The scene of robust replay ``replay`` (0: the scene itself): every box moved and its
     density and friction scaled within the ``robust_*`` half-ranges, seeded by
     ``[config.robust_seed, replay]`` (see the module docstring)."""
     if replay == 0:
         return scene
-    rng = np.random.default_rng([config.robust_seed, replay])
-    boxes: list[BoxObject] = list(scene.boxes)
-    for i, box in enumerate(scene.boxes):
-        density = box.density * (1 + rng.uniform(-config.robust_mass, config.robust_mass))
-        friction = box.friction * (1 + rng.uniform(-config.robust_friction,
-                                                   config.robust_friction))
-        others = [b.footprint() for j, b in enumerate(boxes) if j != i]
-        placed = box
-        for _ in range(RETRIES):
-            candidate = _moved(box, rng, config)
-            corners = candidate.footprint()
-            if fits_on_shelf(candidate, scene.shelf) and not any(
-                    footprints_overlap(corners, other) for other in others):
-                placed = candidate
-                break
-        boxes[i] = replace(placed, density=density, friction=friction)
-    return replace(scene, boxes=tuple(boxes))
+    ranges = BoxPerturbation(config.robust_position, config.robust_yaw, config.robust_mass,
+                             config.robust_friction)
+    return perturb_boxes(scene, ranges, [config.robust_seed, replay])
 
 
 def summarise(seed: int, kinds: Sequence[str], grades: Sequence[tuple[int, int]]

@@ -1,0 +1,109 @@
+"""phi's ensemble (beyond the paper): a knot path scored over K perturbed rollouts, not one.
+
+One phi rollout is chaotic at the scale of a planner's steps (moving every control by eps moves
+toppling boxes by 1e5-1e6 eps) and mis-models Bullet's contact, so a single rollout's objective
+ranks plans little better than a coin. Following randomized smoothing of contact dynamics (Suh,
+Pang, Tedrake, RA-L 2022) and stochastic trajectory optimisation over noisy rollouts in shelf
+clutter (Papallas, Cohn, Dogar, RA-L 2020), a path is scored in K members: member 0 is the scene
+as it is; member k >= 1 is the scene with every box moved and its mass and friction scaled
+(`scene.perturbation.perturb_boxes`, seeded with ``[ensemble.seed, k]``); member 1 pairs
+friction as Bullet does when ``ensemble.bullet_friction_member`` is set. Every path scored in
+one call meets the same members (common random numbers). The score of a path is a risk measure
+of its K objectives (``ensemble.risk``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from drake_clutter.common.config import Config, ConfigError, EnsembleConfig
+from drake_clutter.planners.physics.stage import stage_problem
+from drake_clutter.scene.perturbation import BoxPerturbation, perturb_boxes
+from drake_clutter.scene.scenes import Scene
+from drake_clutter.solvers import ilqr
+
+
+def member_world(scene: Scene, config: Config, member: int) -> tuple[Scene, Config]:
+    """Member ``member``'s scene and configuration (0: both unchanged; see the module
+    docstring)."""
+    if member == 0:
+        return scene, config
+    ens = config.ensemble
+    ranges = BoxPerturbation(ens.position, ens.yaw, ens.mass, ens.friction)
+    world = perturb_boxes(scene, ranges, [ens.seed, member])
+    if member == 1 and ens.bullet_friction_member:
+        config = replace(config, world=replace(config.world, friction_as_bullet=True))
+    return world, config
+
+
+def risk_score(values: Sequence[float], ens: EnsembleConfig) -> float:
+    """The ensemble score of one path from its members' objectives (inf where any member's
+    phi failed): their mean, mean + risk_weight x std (population), or the mean of the worst
+    ceil(cvar_fraction K)."""
+    v = np.asarray(values, float)
+    if not np.all(np.isfinite(v)):
+        return float("inf")
+    if ens.risk == "mean":
+        return float(v.mean())
+    if ens.risk == "mean_std":
+        return float(v.mean() + ens.risk_weight * v.std())
+    worst = max(1, int(np.ceil(ens.cvar_fraction * v.size)))
+    return float(np.sort(v)[-worst:].mean())
+
+
+def member_terms(scene: Scene, paths: dict[str, np.ndarray], config: Config, member: int,
+                 pool=None, knot_time: float | None = None, approach=None
+                 ) -> dict[str, dict[str, float] | None]:
+    """Each knot path's (T + 1, 8) full-stage objective per Table I term (capsule arm, hold
+    tail) in member ``member``'s phi, pruned for all ``paths`` together; None for a path phi
+    cannot roll out, and for every path where phi cannot even settle the member's scene."""
+    world, cfg = member_world(scene, config, member)
+    first, *others = paths.values()
+    try:
+        with stage_problem(world, first, cfg, "capsules", pool, knot_time, approach,
+                           also=tuple(others)) as problem:
+            out = {}
+            for name, q in paths.items():
+                zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
+                out[name] = (None if not np.all(np.isfinite(zs)) else
+                             {k: float(v) for k, v in problem.objective.terms(zs, q[1:]).items()})
+            return out
+    except (RuntimeError, ValueError):  # Drake's solver errors while settling or stepping
+        return {name: None for name in paths}
+
+
+def ensemble_scores(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
+                    knot_time: float | None = None, approach=None
+                    ) -> tuple[dict[str, float], dict[str, list[float | None]]]:
+    """Each path's ensemble score (`risk_score` over ``ensemble.members`` members) and its
+    members' objectives (None where phi failed)."""
+    totals: dict[str, list[float | None]] = {name: [] for name in paths}
+    for member in range(config.ensemble.members):
+        terms = member_terms(scene, paths, config, member, pool, knot_time, approach)
+        for name, t in terms.items():
+            totals[name].append(None if t is None else float(sum(t.values())))
+    scores = {name: risk_score([np.inf if v is None else v for v in values], config.ensemble)
+              for name, values in totals.items()}
+    return scores, totals
+
+
+def check_ensemble(config: EnsembleConfig, file: str = "<configuration>") -> None:
+    """Raises ConfigError naming the first ``ensemble.*`` field that makes no sense."""
+    checks = (("members", config.members >= 1, "at least 1"),
+              ("seed", isinstance(config.seed, int) and not isinstance(config.seed, bool)
+               and config.seed >= 0, "a non-negative integer"),
+              ("position", np.isfinite(config.position) and config.position >= 0,
+               "a non-negative half-range"),
+              ("yaw", np.isfinite(config.yaw) and config.yaw >= 0, "a non-negative half-range"),
+              ("mass", 0 <= config.mass < 1, "in [0, 1) (a relative change)"),
+              ("friction", 0 <= config.friction < 1, "in [0, 1) (a relative change)"),
+              ("risk_weight", np.isfinite(config.risk_weight) and config.risk_weight >= 0,
+               "non-negative"),
+              ("cvar_fraction", 0 < config.cvar_fraction <= 1, "in (0, 1]"))
+    for name, ok, what in checks:
+        if not ok:
+            raise ConfigError(file, f"ensemble.{name}",
+                              f"must be {what}, got {getattr(config, name)!r}")

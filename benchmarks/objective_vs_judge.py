@@ -55,7 +55,7 @@ from drake_clutter.evaluation.outcome import outcome_grade
 from drake_clutter.experiments.report import row_grade, verdict
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store
-from drake_clutter.planners.physics.ensemble import member_terms, risk_score
+from drake_clutter.planners.physics.ensemble import member_rollouts, risk_score
 from drake_clutter.trajectory import Trajectory
 
 EVERY_BOX = 100.0  # m, a prune margin that keeps every box of a shelf dynamic in phi
@@ -96,12 +96,21 @@ def stored_plans(dbs: list[str], configurations: list[str], robust: bool) -> lis
     return list(plans.values())
 
 
-def price(job: tuple) -> list[dict | None]:
-    """The full stage's terms of one knot path in members 0..members-1 (None where phi
-    fails), every box dynamic."""
-    scene_name, q, config, members = job
+def price(job: tuple) -> dict[str, dict]:
+    """Every knot path of one scene (one start) in one member, every box dynamic: per plan
+    key, its terms (None where phi fails) and the boxes' states after the hold tail."""
+    scene_name, paths, config, member = job
     scene = stored_scene(scene_name, config)
-    return [member_terms(scene, {"plan": q}, config, k)["plan"] for k in range(members)]
+    rollouts = member_rollouts(scene, paths, config, member)
+    return {key: {"terms": r.terms,
+                  "final": (None if r.final_boxes is None else
+                            {n: b.tolist() for n, b in r.final_boxes.items()})}
+            for key, r in rollouts.items()}
+
+
+def _terms(plan: dict, members: int) -> list[dict | None]:
+    """The plan's terms in its first ``members`` members (None where phi failed)."""
+    return [m["terms"] if m else None for m in plan["members"][:members]]
 
 
 def _total(terms: dict) -> float:
@@ -111,7 +120,7 @@ def _total(terms: dict) -> float:
 def score(plan: dict, term: str, members: int, risk: str, config) -> float | None:
     """The plan's ensemble score of ``term`` ('total' or a Table I term; terms by their
     members' mean) over its first ``members`` members; None where phi failed."""
-    per = plan["members"][:members]
+    per = _terms(plan, members)
     if any(t is None for t in per):
         return None
     if term != "total":
@@ -136,7 +145,7 @@ def order_agreement(plans: list[dict], label: str, terms: list[str], members: in
     differs."""
     groups, out = defaultdict(list), defaultdict(Counter)
     for p in plans:
-        if all(t is not None for t in p["members"][:members]):
+        if all(t is not None for t in _terms(p, members)):
             groups[(p["scene"], p["angle"])].append(p)
     for group in groups.values():
         for a, b in itertools.combinations(group, 2):
@@ -177,39 +186,56 @@ def physics_below_baseline(plans: list[dict], members: int, config) -> dict:
 
 
 def _load_cache(path: Path | None) -> dict[str, list]:
+    """Per plan key, its priced members in order (the leading run of members 0, 1, ...)."""
     if path is None or not path.exists():
         return {}
-    out = {}
+    found = defaultdict(dict)
     for line in path.read_text().splitlines():
         if line.strip():
             entry = json.loads(line)
-            out[entry["key"]] = entry["members"]
+            found[entry["key"]][entry["member"]] = {"terms": entry["terms"],
+                                                   "final": entry["final"]}
+    out = {}
+    for key, members in found.items():
+        run = []
+        while len(run) in members:
+            run.append(members[len(run)])
+        out[key] = run
     return out
 
 
 def price_all(plans: list[dict], config, members: int, jobs: int, cache: Path | None) -> None:
-    """Fills each plan's 'members' (its terms in members 0..members-1), reusing and extending
-    the cache file."""
+    """Fills each plan's 'members' (per member: its terms and final box states), reusing and
+    extending the cache file; the plans of one scene and start are rolled out in one phi per
+    member (one settle, the same boxes)."""
     done = _load_cache(cache)
-    todo = [p for p in plans if len(done.get(p["key"], [])) < members]
+    groups = defaultdict(dict)
     for p in plans:
-        if p not in todo:
-            p["members"] = done[p["key"]][:members]
-    work = [(p["scene"], np.asarray(p["trajectory"].q, float), config, members) for p in todo]
+        p["members"] = list(done.get(p["key"], []))[:members]
+        for k in range(len(p["members"]), members):
+            q = np.asarray(p["trajectory"].q, float)
+            groups[(p["scene"], q[0].tobytes(), k)][p["key"]] = q
+    by_key = {p["key"]: p for p in plans}
+    work = sorted(groups.items(), key=lambda item: (item[0][2], item[0][0]))
+    jobs_args = [(scene, paths, config, k) for (scene, _, k), paths in work]
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        for p, result in zip(todo, pool.map(price, work)):
-            p["members"] = result
-            if cache is not None:
-                with cache.open("a") as f:
-                    f.write(json.dumps({"key": p["key"], "members": result}) + "\n")
-            totals = ["failed" if t is None else f"{_total(t):.4g}" for t in result]
-            print(f"{p['scene']} angle {p['angle']} grade {p['grade']} objective "
-                  f"{' '.join(totals)} ({', '.join(f'{c}:{pl}' for _, c, pl in p['rows'])})",
+        for ((scene, _, k), paths), result in zip(work, pool.map(price, jobs_args)):
+            for key, entry in result.items():
+                plan = by_key[key]
+                while len(plan["members"]) < k:  # filled in member order: see the sort
+                    plan["members"].append(None)
+                plan["members"].append(entry)
+                if cache is not None:
+                    with cache.open("a") as f:
+                        f.write(json.dumps({"key": key, "member": k, **entry}) + "\n")
+            totals = ["failed" if e["terms"] is None else f"{_total(e['terms']):.4g}"
+                      for e in result.values()]
+            print(f"{scene} member {k}: {len(paths)} plans, objectives {' '.join(totals)}",
                   flush=True)
 
 
 def _print_agreement(plans, label, ks, config) -> None:
-    terms = sorted({k for p in plans for t in p["members"] if t for k in t})
+    terms = sorted({k for p in plans for t in _terms(p, max(ks)) if t for k in t})
     for k in ks:
         for risk in (RISKS if k > 1 else ("mean",)):
             counts = order_agreement(plans, label, [*terms, "total"], k, risk, config)

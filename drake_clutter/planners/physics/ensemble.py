@@ -15,12 +15,12 @@ of its K objectives (``ensemble.risk``).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from drake_clutter.common.config import Config, ConfigError, EnsembleConfig
-from drake_clutter.planners.physics.stage import stage_problem
+from drake_clutter.planners.physics.stage import HoldTail, stage_problem
 from drake_clutter.scene.perturbation import BoxPerturbation, perturb_boxes
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.solvers import ilqr
@@ -54,25 +54,48 @@ def risk_score(values: Sequence[float], ens: EnsembleConfig) -> float:
     return float(np.sort(v)[-worst:].mean())
 
 
-def member_terms(scene: Scene, paths: dict[str, np.ndarray], config: Config, member: int,
-                 pool=None, knot_time: float | None = None, approach=None
-                 ) -> dict[str, dict[str, float] | None]:
-    """Each knot path's (T + 1, 8) full-stage objective per Table I term (capsule arm, hold
-    tail) in member ``member``'s phi, pruned for all ``paths`` together; None for a path phi
-    cannot roll out, and for every path where phi cannot even settle the member's scene."""
+@dataclass(frozen=True)
+class MemberRollout:
+    """One path in one member: its full-stage terms (None where phi failed) and every kept
+    box's 13-number state (quaternion wxyz, position in W (m), angular and linear velocity)
+    at the end of the hold tail (None where phi failed)."""
+
+    terms: dict[str, float] | None
+    final_boxes: dict[str, np.ndarray] | None
+
+
+FAILED = MemberRollout(None, None)
+
+
+def member_rollouts(scene: Scene, paths: dict[str, np.ndarray], config: Config, member: int,
+                    pool=None, knot_time: float | None = None, approach=None
+                    ) -> dict[str, MemberRollout]:
+    """Each knot path (T + 1, 8) rolled out in member ``member``'s phi, pruned for all
+    ``paths`` together, priced by the full stage's objective per Table I term (capsule arm,
+    hold tail); `FAILED` for a path phi cannot roll out, and for every path where phi cannot
+    even settle the member's scene."""
     world, cfg = member_world(scene, config, member)
     first, *others = paths.values()
     try:
         with stage_problem(world, first, cfg, "capsules", pool, knot_time, approach,
                            also=tuple(others)) as problem:
-            out = {}
-            for name, q in paths.items():
-                zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
-                out[name] = (None if not np.all(np.isfinite(zs)) else
-                             {k: float(v) for k, v in problem.objective.terms(zs, q[1:]).items()})
-            return out
+            return {name: _rollout(problem, q) for name, q in paths.items()}
     except (RuntimeError, ValueError):  # Drake's solver errors while settling or stepping
-        return {name: None for name in paths}
+        return {name: FAILED for name in paths}
+
+
+def _rollout(problem, q: np.ndarray) -> MemberRollout:
+    zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
+    if not np.all(np.isfinite(zs)):
+        return FAILED
+    terms = {k: float(v) for k, v in problem.objective.terms(zs, q[1:]).items()}
+    layout = problem.dynamics.layout
+    x_end = zs[-1][:layout.nx]
+    if isinstance(problem.objective, HoldTail):
+        x_end = problem.objective.tail(zs[-1])[0][-1]
+    if not np.all(np.isfinite(x_end)):
+        return MemberRollout(terms, None)
+    return MemberRollout(terms, dict(zip(layout.box_names, layout.boxes(x_end).copy())))
 
 
 def ensemble_scores(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
@@ -82,9 +105,9 @@ def ensemble_scores(scene: Scene, paths: dict[str, np.ndarray], config: Config, 
     members' objectives (None where phi failed)."""
     totals: dict[str, list[float | None]] = {name: [] for name in paths}
     for member in range(config.ensemble.members):
-        terms = member_terms(scene, paths, config, member, pool, knot_time, approach)
-        for name, t in terms.items():
-            totals[name].append(None if t is None else float(sum(t.values())))
+        rollouts = member_rollouts(scene, paths, config, member, pool, knot_time, approach)
+        for name, r in rollouts.items():
+            totals[name].append(None if r.terms is None else float(sum(r.terms.values())))
     scores = {name: risk_score([np.inf if v is None else v for v in values], config.ensemble)
               for name, values in totals.items()}
     return scores, totals

@@ -24,7 +24,12 @@ tipped or fallen); with ``--robust`` the stored robust judge's (its K replays' m
 then mean boxes tipped or fallen; rows without robust replays are left out); with
 ``--rejudge`` that of a fresh nominal Bullet replay under ``evaluation``.
 
-Printed: one line per plan; then, over every two plans of the same initialization (scene and
+Besides the terms, each plan is graded in phi itself ('phi_class', `phi_class`): Sec. III's
+classes read on phi's boxes after the hold tail (a box tipped or off the board, the target in
+the last knot's pre-grasp zone), averaged over the members as the robust judge averages its
+replays - the surrogate of the judge's classes.
+
+Printed: one line per scene, start and member; then, over every two plans of the same initialization (scene and
 angle) whose grades differ, how often each term and the total order them as the judge does
 (agree / disagree; ties in the term are left out) with a 95 % Wilson interval of the agreement
 - about half and half is a coin; with ``--robust`` also over the pairs whose P(success)
@@ -47,16 +52,19 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RotationMatrix
 
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import InputError
-from drake_clutter.evaluation.judge import evaluate
+from drake_clutter.evaluation.judge import evaluate, off_the_board, target_zone_reason
 from drake_clutter.evaluation.outcome import outcome_grade
 from drake_clutter.experiments.report import row_grade, verdict
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store
 from drake_clutter.planners.physics.ensemble import member_rollouts, risk_score
 from drake_clutter.trajectory import Trajectory
+from drake_clutter.worlds.drake_world import build_planning_world
 
 EVERY_BOX = 100.0  # m, a prune margin that keeps every box of a shelf dynamic in phi
 RISKS = ("mean", "mean_std", "cvar")
@@ -113,6 +121,47 @@ def _terms(plan: dict, members: int) -> list[dict | None]:
     return [m["terms"] if m else None for m in plan["members"][:members]]
 
 
+def phi_class(scene, world, q_last: np.ndarray, final: dict | None, config) -> float | None:
+    """The judge's grade read on phi's state after the hold tail, as one number: class (0
+    success, 1 partial success: a box tipped, 2 a box off the board or the target not in the
+    pre-grasp zone of the last knot's gripper) + 0.01 x boxes tipped or fallen; None where phi
+    failed. Kinematic failures (jams) are not read: phi's arm is never stopped."""
+    if final is None:
+        return None
+    names = list(final)
+    states = np.asarray([final[n] for n in names], float)
+    p = states[:, 4:7]
+    q = states[:, :4] / np.linalg.norm(states[:, :4], axis=1, keepdims=True)
+    w, x, y = q[:, 0], q[:, 1], q[:, 2]
+    tilt = np.arccos(np.clip(1 - 2 * (x * x + y * y), -1, 1))  # angle of z_B from z_W
+    fallen = off_the_board(scene, p)
+    tipped = ~fallen & (tilt > config.evaluation.max_tilt)
+    context = world.plant.CreateDefaultContext()
+    world.set_robot_positions(context, world.robot_q(q_last[:7], q_last[7]))
+    X_WG = world.tool_frame.CalcPoseInWorld(context)
+    i = names.index(scene.target)
+    R_WT = RotationMatrix(Quaternion(q[i])).matrix()
+    R_WG = X_WG.rotation().matrix()
+    reason = target_zone_reason(R_WG.T @ (p[i] - X_WG.translation()), R_WG.T @ R_WT,
+                                scene.target_box.size, float(q_last[7]), config.evaluation)
+    others = [k for k, n in enumerate(names) if n != scene.target]
+    cls = 2 if fallen.any() or reason else 1 if tipped[others].any() else 0
+    return cls + 0.01 * int(fallen.sum() + tipped.sum())
+
+
+def add_phi_class(plans: list[dict], config) -> None:
+    """Adds 'phi_class' (`phi_class`) to every priced member's terms-like entry."""
+    worlds = {}
+    for p in plans:
+        scene = stored_scene(p["scene"], config)
+        world = worlds.setdefault(p["scene"], build_planning_world(scene, "capsules",
+                                                                   config.world))
+        q_last = np.asarray(p["trajectory"].q[-1], float)
+        for m in p["members"]:
+            if m is not None:
+                m["phi_class"] = phi_class(scene, world, q_last, m["final"], config)
+
+
 def _total(terms: dict) -> float:
     return float(sum(terms.values()))
 
@@ -120,6 +169,9 @@ def _total(terms: dict) -> float:
 def score(plan: dict, term: str, members: int, risk: str, config) -> float | None:
     """The plan's ensemble score of ``term`` ('total' or a Table I term; terms by their
     members' mean) over its first ``members`` members; None where phi failed."""
+    if term == "phi_class":
+        values = [m.get("phi_class") if m else None for m in plan["members"][:members]]
+        return None if None in values else float(np.mean(values))
     per = _terms(plan, members)
     if any(t is None for t in per):
         return None
@@ -155,7 +207,7 @@ def order_agreement(plans: list[dict], label: str, terms: list[str], members: in
             for term in terms:
                 va, vb = (score(a, term, members, risk, config),
                           score(b, term, members, risk, config))
-                if va != vb:
+                if va is not None and vb is not None and va != vb:
                     out[term]["agree" if (va < vb) == (la < lb) else "disagree"] += 1
     return out
 
@@ -238,9 +290,10 @@ def _print_agreement(plans, label, ks, config) -> None:
     terms = sorted({k for p in plans for t in _terms(p, max(ks)) if t for k in t})
     for k in ks:
         for risk in (RISKS if k > 1 else ("mean",)):
-            counts = order_agreement(plans, label, [*terms, "total"], k, risk, config)
+            counts = order_agreement(plans, label, [*terms, "total", "phi_class"], k, risk,
+                                     config)
             print(f"  K = {k}, {risk}:")
-            for term in ([*terms, "total"] if risk == "mean" else ["total"]):
+            for term in ([*terms, "total", "phi_class"] if risk == "mean" else ["total"]):
                 c = counts[term]
                 n = c["agree"] + c["disagree"]
                 lo, hi = wilson(c["agree"], n)
@@ -287,6 +340,7 @@ def main(argv=None) -> int:
             p["grade"] = outcome_grade(evaluate(stored_scene(p["scene"], config),
                                                 p["trajectory"], config.evaluation))
     price_all(plans, config, max(args.members), args.jobs, args.cache)
+    add_phi_class(plans, config)
     ks = sorted(set(args.members))
     print(f"\n{len(plans)} plans; pairs of one initialization with different grades, "
           "ordered by phi as by the judge:")

@@ -62,6 +62,7 @@ from drake_clutter.phi.derivatives import check_derivative_method
 from drake_clutter.phi.dynamics import ARM_DIM
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.physics.ensemble import check_ensemble
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
@@ -421,6 +422,7 @@ def check_config(config: Config) -> None:
             raise ConfigError("<configuration>", f"physics.{name}",
                               f"must be {what}, got {getattr(cfg, name)!r}")
     check_derivative_method(config.dynamics, config.world)
+    check_ensemble(config.ensemble)
 
 
 def plan_physics(scene: Scene, config: Config | None = None,

@@ -1,0 +1,96 @@
+"""phi's ensemble: members' worlds, risk scores, and the members' rollouts on a shipped scene."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drake_clutter.common.config import Config, ConfigError, EnsembleConfig, load_config
+from drake_clutter.planners.physics import pipeline
+from drake_clutter.planners.physics.ensemble import (
+    check_ensemble,
+    ensemble_scores,
+    member_rollouts,
+    member_world,
+    risk_score,
+)
+from drake_clutter.scene import scenes
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return scenes.load_shipped_scene("fig5_large_small")
+
+
+@pytest.fixture(scope="module")
+def baseline_path(scene):
+    from drake_clutter.planners.baseline import plan_baseline
+
+    (candidate,) = plan_baseline(scene, Config().baseline, alphas=[0.3])
+    assert candidate.ok, candidate.reason
+    return np.asarray(candidate.trajectory.q, float)
+
+
+@pytest.mark.parametrize("risk, extra, expected", [
+    ("mean", {}, 4.0),
+    ("mean_std", {"risk_weight": 1.0}, 4.0 + np.sqrt(12.5)),
+    ("mean_std", {"risk_weight": 0.0}, 4.0),
+    ("cvar", {"cvar_fraction": 0.5}, 6.5),
+    ("cvar", {"cvar_fraction": 0.3}, 6.5),  # ceil(0.3 x 4) = 2 worst members
+    ("cvar", {"cvar_fraction": 0.25}, 10.0),
+    ("cvar", {"cvar_fraction": 1.0}, 4.0),
+])
+def test_risk_scores_known_answers(risk, extra, expected):
+    ens = EnsembleConfig(risk=risk, **extra)
+    assert risk_score([1.0, 2.0, 3.0, 10.0], ens) == pytest.approx(expected)
+    assert risk_score([1.0, float("inf"), 3.0], ens) == float("inf")
+
+
+def test_member_worlds_are_seeded_and_member_one_pairs_friction_as_bullet(scene):
+    config = replace(Config(), ensemble=EnsembleConfig(members=3, seed=5))
+    world0, config0 = member_world(scene, config, 0)
+    assert world0 is scene and config0 is config
+    world1, config1 = member_world(scene, config, 1)
+    world2, config2 = member_world(scene, config, 2)
+    assert config1.world.friction_as_bullet and not config2.world.friction_as_bullet
+    assert world1 != scene and world2 != scene and world1 != world2
+    assert member_world(scene, config, 2)[0] == world2  # same seed, same world
+    other = replace(config, ensemble=replace(config.ensemble, seed=6))
+    assert member_world(scene, other, 2)[0] != world2
+    plain = replace(config, ensemble=replace(config.ensemble, bullet_friction_member=False))
+    assert not member_world(scene, plain, 1)[1].world.friction_as_bullet
+
+
+@pytest.mark.parametrize("field, value", [
+    ("members", "0"), ("seed", "-1"), ("position", "-0.001"), ("mass", "1.0"),
+    ("friction", "-0.1"), ("risk_weight", "-1"), ("cvar_fraction", "0"),
+])
+def test_bad_ensemble_settings_are_config_errors(field, value):
+    config = load_config(None, [f"ensemble.{field}={value}"])
+    with pytest.raises(ConfigError, match=f"ensemble.{field}"):
+        check_ensemble(config.ensemble)
+    with pytest.raises(ConfigError, match=f"ensemble.{field}"):
+        pipeline.check_config(config)
+
+
+def test_member_zero_is_phi_and_members_meet_the_same_worlds(scene, baseline_path):
+    """Member 0 prices a path exactly as the planner's own choice in phi does; a perturbed
+    member ends with the boxes elsewhere; the ensemble's mean is the mean of its members."""
+    config = replace(Config(), ensemble=EnsembleConfig(members=2))
+    paths = {"baseline": baseline_path}
+    nominal = member_rollouts(scene, paths, config, 0)["baseline"]
+    _, info = pipeline.select_path(scene, paths, config)
+    assert sum(nominal.terms.values()) == pytest.approx(info["objectives"]["baseline"])
+    perturbed = member_rollouts(scene, paths, config, 1)["baseline"]
+    assert set(perturbed.final_boxes) == set(nominal.final_boxes)
+    for name, state in nominal.final_boxes.items():
+        assert state.shape == (13,) and np.all(np.isfinite(state))
+        assert np.linalg.norm(state[:4]) == pytest.approx(1.0, abs=1e-6)
+    assert any(np.linalg.norm(nominal.final_boxes[n][4:7] - perturbed.final_boxes[n][4:7])
+               > 1e-4 for n in nominal.final_boxes)
+    scores, totals = ensemble_scores(scene, paths, config)
+    assert totals["baseline"][0] == pytest.approx(sum(nominal.terms.values()))
+    assert totals["baseline"][1] == pytest.approx(sum(perturbed.terms.values()))
+    assert scores["baseline"] == pytest.approx(np.mean(totals["baseline"]))

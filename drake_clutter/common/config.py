@@ -444,6 +444,10 @@ class PhysicsConfig:
     post_substeps: int = 6
     # relative cost decrease that stops iLQR (the solver's default), unitless; ours
     tolerance: float = 1e-6
+    # a step's share of a phi stage's decrease that counts as stalled (0 = off), unitless; ours
+    stall_fraction: float = 0.0
+    # accepted steps in a row under stall_fraction that stop a phi stage, count; ours
+    stall_iterations: int = 2
     # step sizes tried per backward pass (every stage), count; ours
     line_search_steps: int = 6
     # phi stages roll out dynamics.workers step sizes at once, flag; ours

@@ -140,6 +140,10 @@ class ILQRSettings:
     # this fraction of the model's at its step size (0: any decrease)
     reg_scale: tuple[float, ...] | None = None  # per-control scale of the regulariser: mu
     # diag(reg_scale^2) on Q_uu (controls in mixed units: rad, m); None: mu I
+    stall_fraction: float = 0.0  # stop ("stalled") after ``stall_iterations`` accepted steps
+    # in a row each lowered the objective by less than this fraction of the decrease since
+    # the start (the tail of a converging run buys little); 0: no such rule
+    stall_iterations: int = 2
 
 
 class StopReason(StrEnum):
@@ -148,6 +152,7 @@ class StopReason(StrEnum):
     MAX_ITERATIONS = "max_iterations"  # the iteration cap
     CONVERGED = "converged"  # relative improvement, or the predicted decrease, under tolerance
     SMALL_STEP = "small_step"  # the accepted step moved the controls less than min_step
+    STALLED = "stalled"  # stall_iterations steps in a row each bought < stall_fraction
     REGULARIZATION_LIMIT = "regularization_limit"  # mu passed reg_max without an accepted step
     LINE_SEARCH_FAILED = "line_search_failed"  # max_failed_searches line searches failed
 
@@ -448,9 +453,23 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
         if entry["step"] < settings.min_step:
             stop_reason = StopReason.SMALL_STEP
             break
+        if _stalled(history, settings):
+            stop_reason = StopReason.STALLED
+            break
     return ILQRResult(xs=xs, us=us, K=K, k=k, cost=total, cost_history=history,
                       term_history=term_history, iterations=iteration, stop_reason=stop_reason,
                       timings=timings, log=log)
+
+
+def _stalled(history: list[float], settings: ILQRSettings) -> bool:
+    """True when the last ``stall_iterations`` accepted steps each lowered the objective by
+    less than ``stall_fraction`` of the decrease from history[0] to their own value."""
+    n = settings.stall_iterations
+    if settings.stall_fraction <= 0 or len(history) <= n:
+        return False
+    h = np.asarray(history, float)
+    steps = h[-n - 1:-1] - h[-n:]
+    return bool(np.all(steps < settings.stall_fraction * (h[0] - h[-n:])))
 
 
 TRUST_MIN = 1.0 / 64.0  # the adaptive trust region's smallest radius (of step_limit)

@@ -163,6 +163,25 @@ def test_a_step_below_min_step_stops_the_solver_after_it_is_taken():
     np.testing.assert_allclose(stopped.cost_history, free.cost_history[:first_small + 2])
 
 
+@pytest.mark.parametrize("fraction, n", [(0.05, 2), (0.01, 1), (0.2, 3)])
+def test_a_stall_stops_the_solver_where_the_rule_says(fraction, n):
+    """The stall rule on the pendulum: the run stops right after the first ``n`` accepted
+    steps in a row that each bought less than ``fraction`` of the decrease so far, and up to
+    there it is the free run."""
+    free = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)),
+                 ILQRSettings(max_iterations=60))
+    h = np.array(free.cost_history)
+    small = [(h[i - 1] - h[i]) < fraction * (h[0] - h[i]) for i in range(1, len(h))]
+    expected = next(i + 1 for i in range(len(small))
+                    if i + 1 >= n and all(small[i + 1 - n:i + 1]))
+    stopped = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)),
+                    ILQRSettings(max_iterations=60, stall_fraction=fraction,
+                                 stall_iterations=n))
+    assert stopped.stop_reason == "stalled" and stopped.iterations == expected
+    assert expected < free.iterations
+    np.testing.assert_allclose(stopped.cost_history, free.cost_history[:expected + 1])
+
+
 def test_bad_bounds_are_rejected():
     with pytest.raises(ValueError):
         solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((5, 1)),

@@ -144,7 +144,8 @@ def solver_settings(config: Config, iterations: int, knot_time: float | None = N
                    max_failed_searches=cfg.max_failed_searches, min_step=cfg.min_step,
                    feedback=cfg.feedback, step_limit=limit, trust_bounds=cfg.trust_bounds,
                    trust_adapt=cfg.trust_adapt, accept_ratio=cfg.accept_ratio,
-                   reg_scale=limit if cfg.scaled_regulariser else None)
+                   reg_scale=limit if cfg.scaled_regulariser else None,
+                   stall_fraction=cfg.stall_fraction, stall_iterations=cfg.stall_iterations)
 
 
 def arm_feedback_mask(augmented: AugmentedPhi) -> tuple[bool, ...]:
@@ -408,6 +409,8 @@ def check_config(config: Config) -> None:
               ("w_approach_axis", cfg.w_approach_axis >= 0, "non-negative"),
               ("speed_fraction", cfg.speed_fraction > 0, "positive"),
               ("tolerance", cfg.tolerance >= 0, "non-negative"),
+              ("stall_fraction", 0 <= cfg.stall_fraction < 1, "in [0, 1) (0 = off)"),
+              ("stall_iterations", cfg.stall_iterations >= 1, "at least 1"),
               ("line_search_steps", cfg.line_search_steps >= 1, "at least 1"),
               ("max_failed_searches", cfg.max_failed_searches >= 1, "at least 1"),
               ("pre_w_vel", cfg.pre_w_vel is None or cfg.pre_w_vel >= 0,

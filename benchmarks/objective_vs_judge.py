@@ -2,8 +2,8 @@
 """Does phi's objective (one rollout, or an ensemble of K) grade plans as the judge does?
 
     python benchmarks/objective_vs_judge.py --db RUN.db [--db RUN2.db ...]
-        [--configurations NAME ...] [--scenes NAME ...] [--set FIELD=VALUE ...] [--robust] [--members 1 4 8]
-        [--jobs 2] [--cache FILE.jsonl] [--rejudge]
+        [--configurations NAME ...] [--scenes NAME ...] [--set FIELD=VALUE ...] [--robust]
+        [--members 1 4 8] [--margin 0.5] [--jobs 2] [--cache FILE.jsonl] [--rejudge]
 
 The physics planner can only beat the baseline in Bullet if a lower objective in phi means a
 better grade there. This takes every stored plan of the experiment stores (both planners,
@@ -29,10 +29,12 @@ classes read on phi's boxes after the hold tail (a box tipped or off the board, 
 the last knot's pre-grasp zone), averaged over the members as the robust judge averages its
 replays - the surrogate of the judge's classes.
 
-Printed: one line per scene, start and member; then, over every two plans of the same initialization (scene and
-angle) whose grades differ, how often each term and the total order them as the judge does
-(agree / disagree; ties in the term are left out) with a 95 % Wilson interval of the agreement
-- about half and half is a coin; with ``--robust`` also over the pairs whose P(success)
+Printed: one line per scene, start and member; then, over every two plans of the same
+initialization (scene and angle) whose grades differ (with ``--margin`` also over the pairs
+whose class or P(success) differs by at least that much), how often each term and the total
+order them as the judge does (agree / disagree; ties in the term are left out) with a 95 %
+Wilson interval of the agreement (pairs share plans, so the interval is optimistic) - about
+half and half is a coin; with ``--robust`` also over the pairs whose P(success)
 differs; and per store and configuration, the physics plans whose objective is below their
 baseline's, split by the verdict (better / same / worse). ``--cache`` keeps each priced plan
 (one JSON line), so a stopped run resumes where it stopped.
@@ -191,10 +193,11 @@ def wilson(agree: int, n: int, z: float = 1.96) -> tuple[float, float]:
 
 
 def order_agreement(plans: list[dict], label: str, terms: list[str], members: int, risk: str,
-                    config) -> dict[str, Counter]:
+                    config, margin: float = 0.0) -> dict[str, Counter]:
     """Per term (and 'total'): Counter(agree=, disagree=) over the pairs of plans of one
     initialization whose ``label`` ('grade' or 'p_success'; a higher P(success) is better)
-    differs."""
+    differs; with ``margin`` > 0, only pairs whose class (or P(success)) differs by at least
+    that much."""
     groups, out = defaultdict(list), defaultdict(Counter)
     for p in plans:
         if all(t is not None for t in _terms(p, members)):
@@ -202,7 +205,7 @@ def order_agreement(plans: list[dict], label: str, terms: list[str], members: in
     for group in groups.values():
         for a, b in itertools.combinations(group, 2):
             la, lb = _label(a, label), _label(b, label)
-            if la == lb:
+            if la == lb or (margin > 0 and abs(la[0] - lb[0]) < margin):
                 continue
             for term in terms:
                 va, vb = (score(a, term, members, risk, config),
@@ -286,12 +289,12 @@ def price_all(plans: list[dict], config, members: int, jobs: int, cache: Path | 
                   flush=True)
 
 
-def _print_agreement(plans, label, ks, config) -> None:
+def _print_agreement(plans, label, ks, config, margin: float = 0.0) -> None:
     terms = sorted({k for p in plans for t in _terms(p, max(ks)) if t for k in t})
     for k in ks:
         for risk in (RISKS if k > 1 else ("mean",)):
             counts = order_agreement(plans, label, [*terms, "total", "phi_class"], k, risk,
-                                     config)
+                                     config, margin)
             print(f"  K = {k}, {risk}:")
             for term in ([*terms, "total", "phi_class"] if risk == "mean" else ["total"]):
                 c = counts[term]
@@ -315,6 +318,9 @@ def main(argv=None) -> int:
                         help="ensemble sizes K to compare (default: 1, phi alone)")
     parser.add_argument("--jobs", type=int, default=2, help="processes pricing plans")
     parser.add_argument("--cache", type=Path, help="JSON-lines file of priced plans (resume)")
+    parser.add_argument("--margin", type=float, default=0.0,
+                        help="also count only the pairs whose (robust) class or P(success) "
+                             "differs by at least this much")
     parser.add_argument("--rejudge", action="store_true",
                         help="grade each plan by a fresh Bullet replay, not the stored grade")
     args = parser.parse_args(argv)
@@ -345,6 +351,9 @@ def main(argv=None) -> int:
     print(f"\n{len(plans)} plans; pairs of one initialization with different grades, "
           "ordered by phi as by the judge:")
     _print_agreement(plans, "grade", ks, config)
+    if args.margin > 0:
+        print(f"\npairs whose class differs by at least {args.margin}:")
+        _print_agreement(plans, "grade", ks, config, args.margin)
     if args.robust:
         print("\npairs of one initialization with different robust P(success):")
         _print_agreement([p for p in plans if p["p_success"] is not None], "p_success", ks,

@@ -434,6 +434,24 @@ class PhysicsConfig:
     keep_open: bool = True
     # the plan is the best in one phi of the baseline, pre- and post-processed paths, flag; ours
     select_in_phi: bool = True
+    # search before the phi stages ("none", or "sampling": see sampling.py), choice; ours
+    search: Literal["none", "sampling"] = "none"
+    # rounds of the sampling search (cross-entropy refits), count; ours
+    search_rounds: int = 3
+    # paths drawn per round of the sampling search, count; ours
+    search_samples: int = 8
+    # best fraction of a round's scored paths the next round's Gaussian is fitted to, unitless; ours
+    search_elite: float = 0.25
+    # half-range of the search's sideways move of the tool frame (W's y), m; ours
+    search_lateral: float = 0.03
+    # half-range of the search's vertical move of the tool frame (W's z), m; ours
+    search_height: float = 0.02
+    # half-range of the search's turn of the tool frame about W's z, rad; ours
+    search_yaw: float = 0.15
+    # half-range of the search's change of the gripper's opening, m; ours
+    search_opening: float = 0.02
+    # seed of the sampling search's draws, integer; ours
+    search_seed: int = 0
     # iLQR iterations of the Sec. V-B post-processing, count; ours
     post_iterations: int = 40
     # largest arm-point travel between swept-cost samples (0: fixed counts alone), m; ours

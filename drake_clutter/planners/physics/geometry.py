@@ -155,6 +155,11 @@ class ArmGeometry:
         """(unit ``axis`` (0 = x, the approach) of G in W (3,), its derivative d/dq (3, 8))."""
         return self._axis(*self._tool(q), axis)
 
+    def tool_jacobian(self, q) -> tuple[RigidTransform, np.ndarray]:
+        """X_WG at ``q`` (8,) and G's spatial-velocity Jacobian [w; v] in W over the 8
+        trajectory joints (6, 8)."""
+        return self._tool(q)
+
     def _tool(self, q) -> tuple[RigidTransform, np.ndarray]:
         """X_WG and G's spatial-velocity Jacobian in W over the 8 trajectory joints (6, 8)."""
         self.set_state(q)

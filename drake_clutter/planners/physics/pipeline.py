@@ -8,6 +8,10 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `object
    c_grp_horiz at the end instead of the baseline's terminal pose constraint. A kinematic iLQR
    (state q^t, control q^(t+1), A = 0, B = I) is far cheaper than a SNOPT program here and
    reuses the same cost code.
+   ``search`` (ours, ``physics.search: sampling``; off by default): a cross-entropy search
+   over a four-number family of paths around the pre-processed one, scored by phi's ensemble
+   (`sampling`); its best path (never worse than its start in that score) starts the sphere
+   stage, and it is one more candidate of ``select``.
 2. ``sphere`` (Sec. V): ``sphere_iterations`` iLQR iterations through phi with the gripper as
    one sphere (the ``sphere_gripper`` arm in phi and in the cost geometry). The sphere encloses
    the open gripper, so at the pre-grasp it engulfs the target: in this stage the target is
@@ -23,8 +27,9 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `object
 5. ``select`` (ours, ``select_in_phi``): the post-processed, the pre-processed and the
    baseline's paths rolled out in one phi pruned for all three, with the full stage's objective
    (hold tail included); the lowest is the plan (ties go to the earlier in that order), so the
-   physics plan is never worse than its baseline in phi's own objective. ``details["select"]``
-   lists the objectives and the choice.
+   physics plan is never worse than its baseline in phi's own objective. With
+   ``ensemble.members`` > 1 the paths are ranked by their ensemble score instead
+   (`ensemble.ensemble_scores`). ``details["select"]`` lists the objectives and the choice.
 
 What the stages keep (bounds, not costs; ours): the pre-processing keeps the baseline's last
 knot and gripper openings (``pre_keep_pregrasp``: Sec. IV's pre-grasp pose is a constraint
@@ -62,9 +67,10 @@ from drake_clutter.phi.derivatives import check_derivative_method
 from drake_clutter.phi.dynamics import ARM_DIM
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline
-from drake_clutter.planners.physics.ensemble import check_ensemble
+from drake_clutter.planners.physics.ensemble import check_ensemble, ensemble_scores
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
+from drake_clutter.planners.physics.sampling import check_search, sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
 from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene
@@ -263,20 +269,27 @@ def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool
                 times: np.ndarray | None = None, approach: np.ndarray | None = None
                 ) -> tuple[str, dict]:
     """The name of the knot path (each (T + 1, 8), one start) with the lowest objective of the
-    full stage (capsule arm, hold tail) in one phi pruned for all ``paths``, and what was
-    measured: each path's objective (inf where phi fails) and the pruning. Ties go to the
-    earlier name; when phi fails on every path, the first."""
+    full stage (capsule arm, hold tail) in one phi pruned for all ``paths`` - with
+    ``ensemble.members`` > 1 the lowest ensemble score (`ensemble.ensemble_scores`) - and
+    what was measured: each path's objective or score (None where phi fails) and the
+    pruning. Ties go to the earlier name; when phi fails on every path, the first."""
     knot_time = _knot_time(times, config)
     names = list(paths)
-    first, *others = (paths[n] for n in names)
-    with stage_problem(scene, first, config, "capsules", pool, knot_time, approach,
-                       also=tuple(others)) as problem:
-        values = {n: _path_objective(problem.augmented, problem.objective, problem.z0, paths[n])
-                  for n in names}
-        pruning = problem.report.summary()
+    extra = {}
+    if config.ensemble.members > 1:
+        values, members = ensemble_scores(scene, paths, config, pool, knot_time, approach)
+        extra = {"members": members, "risk": config.ensemble.risk}
+        pruning = None
+    else:
+        first, *others = (paths[n] for n in names)
+        with stage_problem(scene, first, config, "capsules", pool, knot_time, approach,
+                           also=tuple(others)) as problem:
+            values = {n: _path_objective(problem.augmented, problem.objective, problem.z0,
+                                         paths[n]) for n in names}
+            pruning = problem.report.summary()
     chosen = min(names, key=lambda n: (values[n], names.index(n)))
     finite = {n: (v if np.isfinite(v) else None) for n, v in values.items()}
-    return chosen, {"objectives": finite, "chosen": chosen, "pruning": pruning}
+    return chosen, {"objectives": finite, "chosen": chosen, "pruning": pruning, **extra}
 
 
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
@@ -299,6 +312,18 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
         q, result, info = physics_stage(scene, paths[1], config, variant, iterations, pool,
                                         times, approach=approach, min_opening=opening)
         return q, result, {**info, "started_from": f"baseline ({exc})"}
+
+
+def _search(scene: Scene, q: np.ndarray, config: Config, pool, times) -> tuple[np.ndarray, dict]:
+    """`sampling.sampling_search` around ``q`` within the joint limits and the phi stages'
+    per-knot speed limit: its path and what it measured."""
+    knot_time = _knot_time(times, config)
+    lo, hi = (np.array(b) for b in control_bounds())
+    steps = max_steps(config.physics, knot_time)
+    found = sampling_search(scene, q, config, lo, hi, steps, pool, knot_time)
+    info = {"score": found.score, "start_score": found.start_score, "rounds": found.rounds,
+            "offset": found.best.vector().tolist()}
+    return found.q, info
 
 
 def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> Candidate:
@@ -329,6 +354,16 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     timings["pre"] = time.perf_counter() - tic
     details["stages"]["pre"] = _stage_record(result, timings["pre"])
     q_pre = q
+    q_search = None
+    if cfg.search == "sampling":
+        tic = time.perf_counter()
+        try:
+            q_search, details["search"] = _search(scene, q_pre, config, pool,
+                                                  candidate.trajectory.times)
+            q = q_search
+        except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep pre
+            details["search"] = {"error": str(exc)}
+        timings["search"] = time.perf_counter() - tic
     stages = (("sphere", "sphere_gripper", min(cfg.sphere_iterations, cfg.iterations)),
               ("full", "capsules", cfg.iterations - min(cfg.sphere_iterations, cfg.iterations)))
     last = None
@@ -364,6 +399,8 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     if cfg.select_in_phi:
         tic = time.perf_counter()
         paths = {"post": q, "pre": q_pre, "baseline": baseline_q}
+        if q_search is not None:
+            paths["search"] = q_search
         try:
             chosen, details["select"] = select_path(scene, paths, config, pool,
                                                     candidate.trajectory.times, approach)
@@ -419,7 +456,7 @@ def check_config(config: Config) -> None:
               ("accept_ratio", 0 <= cfg.accept_ratio < 1, "in [0, 1)"),
               ("max_spectral_radius", cfg.max_spectral_radius > 0, "positive"),
               ("post_variant", cfg.post_variant in pr2.VARIANTS,
-               f"one of {', '.join(pr2.VARIANTS)}"))
+               f"one of {', '.join(pr2.VARIANTS)}"), *check_search(config))
     for name, ok, what in checks:
         if not ok:
             raise ConfigError("<configuration>", f"physics.{name}",

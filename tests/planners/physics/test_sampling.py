@@ -1,0 +1,109 @@
+"""The sampling search around a candidate path: its family of paths, feasibility, the search."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drake_clutter.common.config import Config, ConfigError, load_config
+from drake_clutter.planners.physics import pipeline
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.objective import max_steps
+from drake_clutter.planners.physics.sampling import (
+    PathOffset,
+    bump,
+    offset_path,
+    sampling_search,
+    speed_ok,
+)
+from drake_clutter.scene import scenes
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return scenes.load_shipped_scene("fig5_large_small")
+
+
+@pytest.fixture(scope="module")
+def baseline_path(scene):
+    from drake_clutter.planners.baseline import plan_baseline
+
+    (candidate,) = plan_baseline(scene, Config().baseline, alphas=[0.3])
+    assert candidate.ok, candidate.reason
+    return np.asarray(candidate.trajectory.q, float)
+
+
+def _bounds():
+    return tuple(np.array(b) for b in pipeline.control_bounds())
+
+
+def test_bump_is_zero_with_zero_slope_at_both_ends():
+    b = bump(31)
+    assert b[0] == 0.0 and b[-1] == pytest.approx(0.0, abs=1e-30) and b[15] == pytest.approx(1)
+    assert b[1] < 0.02 and b[-2] < 0.02  # zero slope: the first step is second order
+    assert np.all(b >= 0) and np.all(b <= 1)
+
+
+def test_an_offset_moves_the_tool_frame_as_asked_and_keeps_both_ends(scene, baseline_path):
+    geometry = ArmGeometry(scene, "capsules")
+    lo, hi = _bounds()
+    q = baseline_path
+    np.testing.assert_array_equal(offset_path(geometry, q, PathOffset(), lo, hi), q)
+    moved = offset_path(geometry, q, PathOffset(lateral=0.02, height=-0.01, opening=0.01),
+                        lo, hi)
+    np.testing.assert_array_equal(moved[0], q[0])
+    np.testing.assert_array_equal(moved[-1], q[-1])  # the pre-grasp pose and opening
+    mid = len(q) // 2
+    b = bump(len(q))[mid]
+    shift = geometry.tool(moved[mid])[0] - geometry.tool(q[mid])[0]
+    np.testing.assert_allclose(shift, b * np.array([0.0, 0.02, -0.01]), atol=2e-3)
+    assert moved[mid, 7] == pytest.approx(min(q[mid, 7] + b * 0.01, hi[7]))
+    z_before = geometry.tool_axis(q[mid], 0)[0]
+    turned = offset_path(geometry, q, PathOffset(yaw=0.1), lo, hi)
+    z_after = geometry.tool_axis(turned[mid], 0)[0]
+    angle = np.arctan2(z_after[1], z_after[0]) - np.arctan2(z_before[1], z_before[0])
+    assert angle == pytest.approx(0.1 * b, abs=0.01)
+
+
+def test_speed_ok_allows_the_start_path_own_speed_and_the_limit():
+    start = np.zeros((4, 8))
+    start[2, 0] = 0.3  # the start itself jumps 0.3 rad
+    steps = np.full(8, 0.1)
+    assert speed_ok(start, start, steps)
+    faster = start.copy()
+    faster[2, 0] = 0.35
+    assert not speed_ok(faster, start, steps)
+    slow = start.copy()
+    slow[1, 3] = 0.1
+    assert speed_ok(slow, start, steps)
+
+
+def test_the_search_never_returns_a_worse_path_and_keeps_the_ends(scene, baseline_path):
+    config = load_config(None, ["physics.search_rounds=1", "physics.search_samples=3"])
+    lo, hi = _bounds()
+    steps = max_steps(config.physics, config.baseline.knot_time)
+    found = sampling_search(scene, baseline_path, config, lo, hi, steps)
+    assert found.score <= found.start_score and np.isfinite(found.start_score)
+    np.testing.assert_array_equal(found.q[0], baseline_path[0])
+    np.testing.assert_array_equal(found.q[-1], baseline_path[-1])
+    assert found.rounds[0]["drawn"] == 3 and 0 <= found.rounds[0]["kept"] <= 3
+    again = sampling_search(scene, baseline_path, config, lo, hi, steps)
+    np.testing.assert_array_equal(again.q, found.q)  # seeded: same search, same path
+    assert again.score == found.score
+
+
+@pytest.mark.parametrize("field, value", [
+    ("search_rounds", "0"), ("search_samples", "0"), ("search_elite", "0"),
+    ("search_lateral", "-0.01"), ("search_opening", "0.2"),
+])
+def test_bad_search_settings_are_config_errors(field, value):
+    with pytest.raises(ConfigError, match=f"physics.{field}"):
+        pipeline.check_config(load_config(None, [f"physics.{field}={value}"]))
+
+
+def test_an_unknown_search_is_a_config_error():
+    with pytest.raises(ConfigError, match="physics.search"):
+        load_config(None, ["physics.search=beam"])
+    assert replace(Config().physics, search="sampling").search == "sampling"

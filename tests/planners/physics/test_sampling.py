@@ -107,3 +107,26 @@ def test_an_unknown_search_is_a_config_error():
     with pytest.raises(ConfigError, match="physics.search"):
         load_config(None, ["physics.search=beam"])
     assert replace(Config().physics, search="sampling").search == "sampling"
+
+
+def test_the_pipeline_searches_and_offers_the_found_path_to_the_selection(scene):
+    """physics.search=sampling on fig5 (no phi iLQR stages, to stay quick): the search runs
+    after the pre-processing, its record says how many paths it scored, and its path is one
+    of the selection's candidates, chosen only if no other scores lower."""
+    from drake_clutter.planners.baseline import plan_baseline
+    from drake_clutter.planners.physics.pipeline import plan_physics
+
+    config = load_config(None, ["physics.search=sampling", "physics.search_rounds=1",
+                                "physics.search_samples=2", "physics.iterations=0",
+                                "physics.pre_iterations=2", "physics.post_iterations=2"])
+    candidates = plan_baseline(scene, config.baseline, alphas=[0.3])
+    (plan,) = plan_physics(scene, config, candidates)
+    assert plan.ok, plan.reason
+    search = plan.details["search"]
+    assert search["score"] <= search["start_score"]
+    assert search["rounds"][0]["drawn"] == 2
+    select = plan.details["select"]
+    assert set(select["objectives"]) == {"post", "pre", "baseline", "search"}
+    finite = {n: v for n, v in select["objectives"].items() if v is not None}
+    assert select["chosen"] == min(finite, key=finite.get)
+    assert "search" in plan.timings

@@ -15,6 +15,9 @@ from drake_clutter.experiments.report import (
     bootstrap_interval,
     markdown_stages,
     paired_comparison,
+    selected_plan_success,
+    selected_rows,
+    selection_score,
     paired_rows,
     stage_statistics,
     table_iii,
@@ -240,4 +243,40 @@ def test_stage_statistics_count_accepting_stages_ratios_and_choices():
     assert full["ratio_median"] == 1.0 and full["accepting_pct"] == pytest.approx(100 / 3)
     assert (sphere["chosen_post"], sphere["chosen_pre"], sphere["chosen_baseline"]) == (2, 0, 1)
     text = markdown_stages([sphere, full])
-    assert "| defaults | sphere | 3 | 2 (66.7%) | 4 | 1.50 [0.88, 2.50] | 2 / 0 / 1 |" in text
+    assert "| defaults | sphere | 3 | 2 (66.7%) | 4 | 1.50 [0.88, 2.50] | 2 / 0 / 1 / 0 |" in text
+
+
+def _scored(row, score):
+    """A robust row with the record its planner ranks it by (see `selection_score`)."""
+    if row["planner"] == "baseline":
+        details = {"c_static_hull": [1.0, score[0]], "c_vel": [1.0, score[1]]}
+    else:
+        details = {"select": {"chosen": "post", "objectives": {"post": score, "pre": 0.0}}}
+    return {**row, "plan": {"trajectory": {"q": []}, "details": details}}
+
+
+def test_selected_plan_success_takes_each_planners_own_first_choice():
+    """Scene a: the baseline ranks angle 1 first (kinematic cost 80 x 0 + 0.2 against 80 x
+    0.01 + 0.1), the physics planner angle 0 (objective 5 < 7); scene b: one angle each, the
+    physics row without a plan is never selected."""
+    rows = [_scored(_robust_row("baseline", "a", 0, ["success"] * 4), (0.01, 0.1)),
+            _scored(_robust_row("baseline", "a", 1, ["failure_to_grasp"] * 3 + ["success"]),
+                    (0.0, 0.2)),
+            _scored(_robust_row("baseline", "b", 0, ["success", "failure_to_grasp"] * 2),
+                    (0.0, 1.0)),
+            _scored(_robust_row("physics", "a", 0, ["success"] * 2 + ["partial_success"] * 2),
+                    5.0),
+            _scored(_robust_row("physics", "a", 1, ["success"] * 4), 7.0),
+            _robust_row("physics", "b", 0, ["success"] * 4)]
+    assert selection_score(rows[0]) == pytest.approx(80 * 0.01 + 0.1)
+    assert selection_score(rows[3]) == 5.0 and selection_score(rows[5]) is None
+    chosen = selected_rows(rows)
+    assert chosen[("c", "baseline", "a")]["angle"] == 1
+    assert chosen[("c", "physics", "a")]["angle"] == 0
+    assert chosen[("c", "physics", "b")] is None
+    (summary,) = selected_plan_success(rows)
+    assert summary["baseline_selected"] == pytest.approx((0.25 + 0.5) / 2)
+    assert summary["physics_selected"] == pytest.approx((0.5 + 0.0) / 2)
+    assert summary["physics_best_angle"] == pytest.approx((1.0 + 1.0) / 2)
+    assert summary["selected_diff"] == pytest.approx(0.25 / 2 - 0.5 / 2)
+    assert summary["selected_ci_low"] <= summary["selected_diff"] <= summary["selected_ci_high"]

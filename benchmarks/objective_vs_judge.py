@@ -27,7 +27,8 @@ then mean boxes tipped or fallen; rows without robust replays are left out); wit
 Besides the terms, each plan is graded in phi itself ('phi_class', `phi_class`): Sec. III's
 classes read on phi's boxes after the hold tail (a box tipped or off the board, the target in
 the last knot's pre-grasp zone), averaged over the members as the robust judge averages its
-replays - the surrogate of the judge's classes.
+replays - the surrogate of the judge's classes; 'phi_class_kf' also reads a kinematic failure
+where c_force holds at least one knot's worth of a contact at the judge's shelf-force limit.
 
 Printed: one line per scene, start and member; then, over every two plans of the same
 initialization (scene and angle) whose grades differ (with ``--margin`` also over the pairs
@@ -134,7 +135,7 @@ def phi_class(scene, world, q_last: np.ndarray, final: dict | None, config) -> f
     states = np.asarray([final[n] for n in names], float)
     p = states[:, 4:7]
     q = states[:, :4] / np.linalg.norm(states[:, :4], axis=1, keepdims=True)
-    w, x, y = q[:, 0], q[:, 1], q[:, 2]
+    x, y = q[:, 1], q[:, 2]
     tilt = np.arccos(np.clip(1 - 2 * (x * x + y * y), -1, 1))  # angle of z_B from z_W
     fallen = off_the_board(scene, p)
     tipped = ~fallen & (tilt > config.evaluation.max_tilt)
@@ -152,7 +153,9 @@ def phi_class(scene, world, q_last: np.ndarray, final: dict | None, config) -> f
 
 
 def add_phi_class(plans: list[dict], config) -> None:
-    """Adds 'phi_class' (`phi_class`) to every priced member's terms-like entry."""
+    """Adds 'phi_class' (`phi_class`) and 'phi_class_kf' to every priced member's entry:
+    the latter reads a kinematic failure (class 3) where c_force is at least one knot's worth
+    of a contact at the judge's shelf-force limit (w_force / 2 x max_static_force^2)."""
     worlds = {}
     for p in plans:
         scene = stored_scene(p["scene"], config)
@@ -162,6 +165,14 @@ def add_phi_class(plans: list[dict], config) -> None:
         for m in p["members"]:
             if m is not None:
                 m["phi_class"] = phi_class(scene, world, q_last, m["final"], config)
+                m["phi_class_kf"] = _with_jams(m["phi_class"], m["terms"], config)
+
+
+def _with_jams(value: float | None, terms: dict | None, config) -> float | None:
+    if value is None or terms is None:
+        return None
+    jam = 0.5 * config.physics.w_force * config.evaluation.max_static_force ** 2
+    return 3.0 + (value % 1.0) if terms.get("force", 0.0) >= jam else value
 
 
 def _total(terms: dict) -> float:
@@ -171,8 +182,8 @@ def _total(terms: dict) -> float:
 def score(plan: dict, term: str, members: int, risk: str, config) -> float | None:
     """The plan's ensemble score of ``term`` ('total' or a Table I term; terms by their
     members' mean) over its first ``members`` members; None where phi failed."""
-    if term == "phi_class":
-        values = [m.get("phi_class") if m else None for m in plan["members"][:members]]
+    if term in ("phi_class", "phi_class_kf"):
+        values = [m.get(term) if m else None for m in plan["members"][:members]]
         return None if None in values else float(np.mean(values))
     per = _terms(plan, members)
     if any(t is None for t in per):
@@ -274,7 +285,8 @@ def price_all(plans: list[dict], config, members: int, jobs: int, cache: Path | 
     work = sorted(groups.items(), key=lambda item: (item[0][2], item[0][0]))
     jobs_args = [(scene, paths, config, k) for (scene, _, k), paths in work]
     with ProcessPoolExecutor(max_workers=jobs) as pool:
-        for ((scene, _, k), paths), result in zip(work, pool.map(price, jobs_args)):
+        for ((scene, _, k), paths), result in zip(work, pool.map(price, jobs_args),
+                                                         strict=True):
             for key, entry in result.items():
                 plan = by_key[key]
                 while len(plan["members"]) < k:  # filled in member order: see the sort
@@ -293,10 +305,10 @@ def _print_agreement(plans, label, ks, config, margin: float = 0.0) -> None:
     terms = sorted({k for p in plans for t in _terms(p, max(ks)) if t for k in t})
     for k in ks:
         for risk in (RISKS if k > 1 else ("mean",)):
-            counts = order_agreement(plans, label, [*terms, "total", "phi_class"], k, risk,
-                                     config, margin)
+            extra = ["total", "phi_class", "phi_class_kf"]
+            counts = order_agreement(plans, label, [*terms, *extra], k, risk, config, margin)
             print(f"  K = {k}, {risk}:")
-            for term in ([*terms, "total", "phi_class"] if risk == "mean" else ["total"]):
+            for term in ([*terms, *extra] if risk == "mean" else ["total"]):
                 c = counts[term]
                 n = c["agree"] + c["disagree"]
                 lo, hi = wilson(c["agree"], n)

@@ -147,6 +147,7 @@ def _cmd_plan(args) -> int:
         planner_names,
         run_planners,
     )
+    from drake_clutter.planners.selection import selected_index
     from drake_clutter.scene.scenes import resolve_scene
     from drake_clutter.trajectory import save_plan
 
@@ -163,11 +164,21 @@ def _cmd_plan(args) -> int:
     check_planners(config, names, args.config or "<command line>")
     plans = run_planners(scene, config, names)
     candidates = [c for name in names for c in plans[name]]
+    # The candidate each planner would execute, ranked without the judge; its index among
+    # the file's candidates.
+    offsets = {name: sum(len(plans[n]) for n in names[:names.index(name)]) for name in names}
+    chosen = {name: selected_index(plans[name], config.baseline) for name in names}
+    selected = {name: None if i is None else offsets[name] + i for name, i in chosen.items()}
     save_plan(args.out, scene.name, candidates,
-              extra={"planner": args.planner, "config": {"baseline": to_data(config.baseline),
-                                                         "physics": to_data(config.physics)}})
+              extra={"planner": args.planner, "selected": selected,
+                     "config": {"baseline": to_data(config.baseline),
+                                "physics": to_data(config.physics)}})
     for name in names:
         print(get_planner(name).table(plans[name]))
+        i = chosen[name]
+        print(f"{name} would execute: " + ("nothing (no usable candidate)" if i is None else
+                                          f"alpha {plans[name][i].alpha:+.3f} (candidate "
+                                          f"{selected[name]} of the file)"))
     ok = sum(c.ok for c in candidates)
     print(f"{ok} of {len(candidates)} angles ok ({scene.name}, {args.planner}); wrote {args.out}")
     return 0

@@ -21,8 +21,9 @@ Definitions (Sec. VI-B), per (configuration, planner):
 * Selected-plan success (beyond the paper): per scene, the robust P(success) of the candidate
   each planner ranks first without the judge (`selection_score`), beside the best angle's.
 * Fig. 9c: mean planning time per initialization (s) against the number of objects: for the
-  physics planner, its stages (pre, search, phi stages, post, select) on units whose baseline candidate gave
-  it an initialization; for the baseline, its whole planning time per angle (for reference).
+  physics planner, its stages (pre, search, phi stages, post, select) on units whose baseline
+  candidate gave it an initialization; for the baseline, its whole planning time per angle
+  (for reference).
 
 The paper's published numbers sit beside ours (Tables III and IV). The paper gives Fig. 9's
 curves only as plots; its text says the baseline was near 100% at 5 objects or fewer, which
@@ -45,6 +46,7 @@ from drake_clutter.evaluation.outcome import (
     behaviour_grade,
     scene_score,
 )
+from drake_clutter.planners.selection import selection_score as planner_selection_score
 
 ENVIRONMENTS = ("bookshelf", "fridge")
 ENV_LABELS = {"bookshelf": "Bookshelf", "fridge": "Refrigerator", "aggregate": "Aggregate"}
@@ -529,28 +531,12 @@ def markdown_stages(table: list[dict]) -> str:
 
 
 def selection_score(row: dict, baseline: BaselineConfig | None = None) -> float | None:
-    """The score a planner ranks its own candidates by, without the judge (lower is better):
-    the baseline's kinematic cost at the end of its path optimisation (w_static_hull x
-    c_static_hull + w_vel x c_vel, Sec. IV, ``baseline``'s weights); the physics planner's
-    objective in phi (or ensemble score) of the path it chose (``details["select"]``; for
-    plans stored before that choice existed, its last phi stage's final objective). None for
-    a row without a plan or without those records."""
-    details = (row.get("plan") or {}).get("details") or {}
-    if not (row.get("plan") or {}).get("trajectory"):
+    """The score the row's planner ranks its candidates by without the judge
+    (`planners.selection.selection_score`, lower is better); None for a row without a plan."""
+    plan = row.get("plan") or {}
+    if not plan.get("trajectory"):
         return None
-    if row["planner"] == "baseline":
-        weights = baseline or BaselineConfig()
-        if "c_vel" not in details:
-            return None
-        return (weights.w_static_hull * float(details.get("c_static_hull", [0.0])[-1])
-                + weights.w_vel * float(details["c_vel"][-1]))
-    select = details.get("select") or {}
-    value = (select.get("objectives") or {}).get(select.get("chosen"))
-    if not select:
-        stages = details.get("stages") or {}
-        last = stages.get("full") or stages.get("sphere") or {}
-        value = (last.get("cost_history") or [None])[-1]
-    return None if value is None else float(value)
+    return planner_selection_score(row["planner"], plan.get("details") or {}, baseline)
 
 
 def selected_rows(rows: list[dict]) -> dict[tuple[str, str, str], dict | None]:

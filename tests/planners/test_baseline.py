@@ -26,6 +26,7 @@ from drake_clutter.planners.approach import (
     ik_seeds,
     static_planning_world,
 )
+from drake_clutter.planners.selection import selected_index
 from drake_clutter.robot.pr2 import velocity_limits
 from drake_clutter.scene.generators import generate_scene
 from drake_clutter.scene.scenes import BoxObject, load_shipped_scene, shipped_scene_names
@@ -402,6 +403,24 @@ def test_nonsense_configuration_is_a_config_error(bookshelf, field, value):
 # ----------------------------------------------------------------------------- the command
 
 
+def test_the_selected_candidate_has_the_lowest_kinematic_cost():
+    from drake_clutter.planners.selection import selection_score
+    from drake_clutter.trajectory import Candidate, Trajectory
+
+    def candidate(hull, vel, status="ok"):
+        details = {"c_static_hull": [1.0, hull], "c_vel": [9.0, vel]}
+        path = Trajectory(np.array([0.0, 0.1]), np.zeros((2, 8)))
+        return Candidate(0.1, status, "", path, planner="baseline", details=details)
+
+    config = BaselineConfig()
+    cands = [candidate(0.01, 0.1), candidate(0.0, 0.5), candidate(0.0, 0.2, "ik_failed")]
+    assert selection_score("baseline", cands[0].details, config) == pytest.approx(
+        config.w_static_hull * 0.01 + config.w_vel * 0.1)
+    expected = 0 if config.w_static_hull * 0.01 + 0.1 < 0.5 else 1
+    assert selected_index(cands, config) == expected
+    assert selected_index([cands[2]], config) is None  # a failed candidate is never chosen
+
+
 def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "drake_clutter.cli", *args], cwd=REPO,
                           capture_output=True, text=True, timeout=300)
@@ -413,10 +432,15 @@ def test_plan_command_writes_every_angle(tmp_path):
                   "--out", str(out))
     assert result.returncode == 0, result.stderr
     lines = result.stdout.strip().splitlines()
-    assert lines[0].split()[:2] == ["alpha", "status"] and len(lines) == 1 + 3 + 1
+    assert lines[0].split()[:2] == ["alpha", "status"] and len(lines) == 1 + 3 + 2
     scene_name, candidates, doc = load_plan(out)
     assert scene_name == "fig5_large_small" and doc["planner"] == "baseline"
     assert len(candidates) == 3
+    # The candidate the baseline would execute: its lowest kinematic cost among the usable.
+    usable = [i for i, c in enumerate(candidates) if c.ok]
+    assert doc["selected"]["baseline"] == selected_index(candidates)
+    assert doc["selected"]["baseline"] in usable
+    assert lines[-2].startswith("baseline would execute: alpha")
     raw = json.loads(out.read_text())["candidates"]
     for c, data in zip(candidates, raw, strict=True):
         assert {"alpha", "status", "reason", "timings", "trajectory"} <= set(data)

@@ -95,7 +95,8 @@ def _rollout(problem, q: np.ndarray) -> MemberRollout:
         x_end = problem.objective.tail(zs[-1])[0][-1]
     if not np.all(np.isfinite(x_end)):
         return MemberRollout(terms, None)
-    return MemberRollout(terms, dict(zip(layout.box_names, layout.boxes(x_end).copy())))
+    return MemberRollout(terms, dict(zip(layout.box_names, layout.boxes(x_end).copy(),
+                                               strict=True)))
 
 
 def ensemble_scores(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,

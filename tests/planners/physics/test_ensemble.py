@@ -85,7 +85,7 @@ def test_member_zero_is_phi_and_members_meet_the_same_worlds(scene, baseline_pat
     assert sum(nominal.terms.values()) == pytest.approx(info["objectives"]["baseline"])
     perturbed = member_rollouts(scene, paths, config, 1)["baseline"]
     assert set(perturbed.final_boxes) == set(nominal.final_boxes)
-    for name, state in nominal.final_boxes.items():
+    for state in nominal.final_boxes.values():
         assert state.shape == (13,) and np.all(np.isfinite(state))
         assert np.linalg.norm(state[:4]) == pytest.approx(1.0, abs=1e-6)
     assert any(np.linalg.norm(nominal.final_boxes[n][4:7] - perturbed.final_boxes[n][4:7])

@@ -15,7 +15,9 @@ planning time. Meshcat then replays the chosen angle, the plans of both planners
 (physics on the right, baseline on the left; the boxes move as Bullet moved them, tipped boxes
 orange, fallen red, contact forces as yellow arrows; drake_clutter/viz/replay.py): the angle with
 the best physics outcome among those both planners made a plan for (ties: the better baseline
-outcome, then the first). Cost curves of the physics plans (each term per iLQR iteration) go
+outcome, then the first); with ``--show selected``, each planner's own choice, the candidate it
+would execute ranked without the judge (starred in the table; drake_clutter/planners/
+selection.py). Cost curves of the physics plans (each term per iLQR iteration) go
 to PNG files. Prints the Meshcat URL and serves until Ctrl-C unless --html or --no-browser is
 given. Bad input prints one line and exits 2.
 """
@@ -34,6 +36,7 @@ from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS
 from drake_clutter.planners.registry import planner_names, run_planners
+from drake_clutter.planners.selection import selected_index
 from drake_clutter.robot.pr2 import VARIANTS
 from drake_clutter.scene.scenes import DEFAULT_SCENE, resolve_scene
 
@@ -64,19 +67,35 @@ def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS) -
             for name, candidates in plans.items()}
 
 
-def outcome_table(plans: dict) -> str:
-    """One row per angle: each planner's outcome kind and planning time (s), and the seconds
-    per stage of the planner shown first."""
+def selections(plans: dict, config) -> dict[str, int | None]:
+    """Per planner, the angle index of the candidate it would execute, chosen without the
+    judge (`planners.selection.selected_index`), or None."""
+    return {name: selected_index(candidates, config.baseline)
+            for name, (candidates, _) in plans.items()}
+
+
+def outcome_table(plans: dict, selected: dict[str, int | None] | None = None) -> str:
+    """One row per angle: each planner's outcome kind and planning time (s), a '*' on the
+    candidate it would execute (``selected``), and the seconds per stage of the planner shown
+    first."""
     names = list(plans)
-    header = f"{'alpha':>7}  " + "  ".join(f"{n:18} {'s':>6}" for n in names)
+    selected = selected or {}
+    header = f"{'alpha':>7}  " + "  ".join(f"{n:19} {'s':>6}" for n in names)
     rows = [header + f"  {names[0]} stages (s)"]
     for i, first in enumerate(plans[names[0]][0]):
         cells = []
         for name in names:
             candidate, outcome = plans[name][0][i], plans[name][1][i]
-            cells.append(f"{outcome.kind:18} {sum(candidate.timings.values()):6.1f}")
+            mark = "*" if selected.get(name) == i else " "
+            cells.append(f"{outcome.kind:18}{mark} {sum(candidate.timings.values()):6.1f}")
         stages = "  " + " ".join(f"{k}={v:.1f}" for k, v in first.timings.items())
         rows.append(f"{first.alpha:+7.3f}  " + "  ".join(cells) + stages)
+    if selected:
+        rows.append("* the candidate each planner would execute (ranked without the judge): "
+                    + ", ".join(f"{n} " + ("none" if selected.get(n) is None else
+                                           f"alpha {plans[n][0][selected[n]].alpha:+.3f} "
+                                           f"({plans[n][1][selected[n]].kind})")
+                                for n in names))
     return "\n".join(rows)
 
 
@@ -118,8 +137,10 @@ def write_cost_curves(plans: dict, directory: Path, stem: str) -> list[Path]:
 
 def replay(scene, config, plans: dict, choice, variant: str, html: str | None,
            wait: bool) -> None:
-    """Replays the chosen angle's plans side by side in Meshcat (or shows the scene when no
-    plan is usable), then writes ``html`` or serves (until Ctrl-C when ``wait``)."""
+    """Replays the chosen plans side by side in Meshcat (or shows the scene when no plan is
+    usable), then writes ``html`` or serves (until Ctrl-C when ``wait``). ``choice``: (angle
+    index, planners) - one angle for all, `choose_angle` - or {planner: angle index} - each
+    planner's own, `selections`."""
     from pydrake.geometry import Meshcat
 
     from drake_clutter.viz.replay import PlanView, record_replay
@@ -129,13 +150,13 @@ def replay(scene, config, plans: dict, choice, variant: str, html: str | None,
         print("no usable plan: showing the scene")
         show_scene(scene, config, variant=variant, html=html, wait=wait)
         return
-    index, names = choice
-    views = [PlanView(n, plans[n][0][index], plans[n][1][index]) for n in names]
+    per = choice if isinstance(choice, dict) else dict.fromkeys(choice[1], choice[0])
+    views = [PlanView(n, plans[n][0][i], plans[n][1][i]) for n, i in per.items()]
     meshcat = Meshcat()
     summary = record_replay(scene, views, config, meshcat, variant)
     sides = ("right", "left") if len(views) == 2 else tuple(f"copy {i}" for i in range(len(views)))
-    print(f"replay of alpha = {views[0].candidate.alpha:+.3f} ({summary.duration:.1f} s): " +
-          ", ".join(f"{v.label} ({v.outcome.kind}) {side} at {p}"
+    print(f"replay ({summary.duration:.1f} s): " +
+          ", ".join(f"{v.label} alpha {v.candidate.alpha:+.3f} ({v.outcome.kind}) {side} at {p}"
                     for v, side, p in zip(views, sides, summary.paths, strict=True)))
     if html:
         print(f"wrote {write_static_html(meshcat, html)}")
@@ -162,6 +183,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--costs", metavar="DIR",
                         help="directory for the cost-curve PNGs (default: that of --html; "
                         "none are written when serving without --costs)")
+    parser.add_argument("--show", choices=("best", "selected"), default="best",
+                        help="replay the angle with the best outcome in Bullet (default), or "
+                        "the candidate each planner would execute, chosen without the judge")
     parser.add_argument("--variant", choices=VARIANTS, default="capsules",
                         help="arm geometry drawn in Meshcat (default: capsules)")
     parser.add_argument("--no-browser", action="store_true",
@@ -198,13 +222,18 @@ def main(argv=None) -> int:
         config = with_iterations(load_config(args.config, args.overrides), args.iterations)
         scene = resolve_scene(args.scene)
         plans = plan_and_evaluate(scene, config, args.angles, args.planner)
-        print(outcome_table(plans))
+        selected = selections(plans, config)
+        print(outcome_table(plans, selected))
         costs = args.costs or (str(Path(args.html).parent) if args.html else None)
         if costs is not None:
             stem = Path(args.html).stem if args.html else scene.name
             for path in write_cost_curves(plans, Path(costs), stem):
                 print(f"wrote {path}")
-        replay(scene, config, plans, choose_angle(plans), args.variant, args.html,
+        if args.show == "selected":
+            choice = {n: i for n, i in selected.items() if i is not None} or None
+        else:
+            choice = choose_angle(plans)
+        replay(scene, config, plans, choice, args.variant, args.html,
                wait=not args.html and not args.no_browser)
     except InputError as exc:
         print(f"plan_scene: error: {exc}", file=sys.stderr)

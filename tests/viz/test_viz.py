@@ -106,12 +106,27 @@ def test_plan_scene_baseline_writes_the_replay_html(tmp_path):
     lines = result.stdout.splitlines()
     assert lines[0].split()[:3] == ["alpha", "baseline", "s"]
     assert len([ln for ln in lines if ln.strip().startswith(("+", "-"))]) == 2  # 2 angles
-    assert "replay of alpha" in result.stdout and f"wrote {out}" in result.stdout
+    assert "replay (" in result.stdout and f"wrote {out}" in result.stdout
+    starred = [ln for ln in lines if ln.strip().startswith(("+", "-")) and "*" in ln]
+    assert len(starred) == 1  # the candidate the baseline would execute
+    assert "would execute (ranked without the judge): baseline alpha" in result.stdout
     paths = static_html_paths(out.read_text())
     for box in load_shipped_scene(DEFAULT_SCENE).boxes:
         assert f"/drake/illustration/boxes/{box.name}" in paths
     assert not any(p.startswith("/drake/illustration_") for p in paths)  # one planner, one copy
     assert not list(tmp_path.glob("*.png"))  # no iLQR, no cost curves
+
+
+def test_plan_scene_replays_the_selected_candidate(tmp_path):
+    out = tmp_path / "selected.html"
+    result = _app("--planner", "baseline", "--angles", "3", "--show", "selected",
+                  "--html", str(out))
+    assert result.returncode == 0, result.stderr
+    starred = next(ln for ln in result.stdout.splitlines()
+                   if ln.strip().startswith(("+", "-")) and "*" in ln)
+    replay = next(ln for ln in result.stdout.splitlines() if ln.startswith("replay ("))
+    assert f"baseline alpha {starred.split()[0]}" in replay
+    assert out.exists()
 
 
 def _terminal_sigint() -> None:

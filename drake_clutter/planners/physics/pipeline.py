@@ -9,9 +9,9 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `object
    (state q^t, control q^(t+1), A = 0, B = I) is far cheaper than a SNOPT program here and
    reuses the same cost code.
    ``search`` (ours, ``physics.search: sampling``; off by default): a cross-entropy search
-   over a four-number family of paths around the pre-processed one, scored by phi's ensemble
-   (`sampling`); its best path (never worse than its start in that score) starts the sphere
-   stage, and it is one more candidate of ``select``.
+   over a four-number family of paths around the better of the pre-processed and the
+   baseline paths, scored by phi's ensemble (`sampling`); its best path (never worse than
+   either in that score) starts the sphere stage, and it is one more candidate of ``select``.
 2. ``sphere`` (Sec. V): ``sphere_iterations`` iLQR iterations through phi with the gripper as
    one sphere (the ``sphere_gripper`` arm in phi and in the cost geometry). The sphere encloses
    the open gripper, so at the pre-grasp it engulfs the target: in this stage the target is
@@ -314,13 +314,15 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
         return q, result, {**info, "started_from": f"baseline ({exc})"}
 
 
-def _search(scene: Scene, q: np.ndarray, config: Config, pool, times) -> tuple[np.ndarray, dict]:
-    """`sampling.sampling_search` around ``q`` within the joint limits and the phi stages'
-    per-knot speed limit: its path and what it measured."""
+def _search(scene: Scene, q: np.ndarray, baseline_q: np.ndarray, config: Config, pool,
+            times) -> tuple[np.ndarray, dict]:
+    """`sampling.sampling_search` around the better of ``q`` and ``baseline_q`` in ensemble
+    score, within the joint limits and the phi stages' per-knot speed limit: its path and
+    what it measured."""
     knot_time = _knot_time(times, config)
     lo, hi = (np.array(b) for b in control_bounds())
     steps = max_steps(config.physics, knot_time)
-    found = sampling_search(scene, q, config, lo, hi, steps, pool, knot_time)
+    found = sampling_search(scene, q, config, lo, hi, steps, pool, knot_time, (baseline_q,))
     info = {"score": found.score, "start_score": found.start_score, "rounds": found.rounds,
             "offset": found.best.vector().tolist()}
     return found.q, info
@@ -358,7 +360,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     if cfg.search == "sampling":
         tic = time.perf_counter()
         try:
-            q_search, details["search"] = _search(scene, q_pre, config, pool,
+            q_search, details["search"] = _search(scene, q_pre, baseline_q, config, pool,
                                                   candidate.trajectory.times)
             q = q_search
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep pre

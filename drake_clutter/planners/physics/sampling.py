@@ -98,12 +98,14 @@ class SearchResult:
 
 def sampling_search(scene: Scene, q: np.ndarray, config: Config, lo: np.ndarray,
                     hi: np.ndarray, steps: np.ndarray, pool=None,
-                    knot_time: float | None = None) -> SearchResult:
-    """The cross-entropy search around the path q (T + 1, 8) (module docstring): ``physics.
+                    knot_time: float | None = None,
+                    alternatives: tuple[np.ndarray, ...] = ()) -> SearchResult:
+    """The cross-entropy search around the path q (T + 1, 8) (module docstring) - or around
+    the one of ``alternatives`` (same start knot) with a lower ensemble score: ``physics.
     search_rounds`` rounds of ``search_samples`` draws from a Gaussian over (lateral, height,
     yaw, opening), started at zero with the ``search_*`` half-ranges as its standard
     deviations and truncated to them, refitted to the best ``search_elite`` fraction; seeded
-    with ``search_seed``."""
+    with ``search_seed``. ``start_score`` is the centre's score."""
     cfg = config.physics
     rng = np.random.default_rng(cfg.search_seed)
     ranges = np.array([cfg.search_lateral, cfg.search_height, cfg.search_yaw,
@@ -111,9 +113,11 @@ def sampling_search(scene: Scene, q: np.ndarray, config: Config, lo: np.ndarray,
     mean, std = np.zeros(4), ranges.copy()
     geometry = ArmGeometry(scene, "capsules")
     clearance = ShelfClearance(static_planning_world(scene))
-    start = np.array(q, dtype=float)
-    scores, _ = ensemble_scores(scene, {"start": start}, config, pool, knot_time)
-    best_q, best_score, best = start, scores["start"], PathOffset()
+    starts = {f"start{i}": np.array(p, dtype=float) for i, p in enumerate((q, *alternatives))}
+    scores, _ = ensemble_scores(scene, starts, config, pool, knot_time)
+    centre = min(starts, key=lambda n: (scores[n], n))
+    start = starts[centre]
+    best_q, best_score, best = start, scores[centre], PathOffset()
     start_score, rounds = best_score, []
     for _ in range(cfg.search_rounds):
         draws = np.clip(mean + std * rng.standard_normal((cfg.search_samples, 4)),

@@ -9,6 +9,7 @@ import pytest
 
 from drake_clutter.common.config import Config, ConfigError, load_config
 from drake_clutter.planners.physics import pipeline
+from drake_clutter.planners.physics.ensemble import ensemble_scores
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.objective import max_steps
 from drake_clutter.planners.physics.sampling import (
@@ -92,6 +93,12 @@ def test_the_search_never_returns_a_worse_path_and_keeps_the_ends(scene, baselin
     again = sampling_search(scene, baseline_path, config, lo, hi, steps)
     np.testing.assert_array_equal(again.q, found.q)  # seeded: same search, same path
     assert again.score == found.score
+    other = baseline_path.copy()
+    other[1:-1, 1] += 0.05  # the shoulder lifted: another start
+    centred = sampling_search(scene, other, config, lo, hi, steps, alternatives=(baseline_path,))
+    scores, _ = ensemble_scores(scene, {"a": other, "b": baseline_path}, config)
+    assert centred.start_score == pytest.approx(min(scores.values()))  # the better start
+    assert centred.score <= centred.start_score
 
 
 @pytest.mark.parametrize("field, value", [

@@ -57,6 +57,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
+from scipy.stats import binomtest
 
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import InputError
@@ -226,6 +227,32 @@ def order_agreement(plans: list[dict], label: str, terms: list[str], members: in
     return out
 
 
+def against_one(plans: list[dict], label: str, members: int, risk: str, config) -> tuple:
+    """Over the pairs of one initialization whose ``label`` differs and that both K =
+    ``members`` and K = 1 order (no tie): (pairs only K orders as the judge, pairs only K = 1
+    does, the two-sided sign test's p) - the paired view of an ensemble's gain."""
+    groups = defaultdict(list)
+    for p in plans:
+        if all(t is not None for t in _terms(p, members)):
+            groups[(p["scene"], p["angle"])].append(p)
+    gain = loss = 0
+    for group in groups.values():
+        for a, b in itertools.combinations(group, 2):
+            la, lb = _label(a, label), _label(b, label)
+            if la == lb:
+                continue
+            ka, kb = (score(a, "total", members, risk, config),
+                      score(b, "total", members, risk, config))
+            oa, ob = score(a, "total", 1, "mean", config), score(b, "total", 1, "mean", config)
+            if ka == kb or oa == ob:
+                continue
+            k_right, one_right = (ka < kb) == (la < lb), (oa < ob) == (la < lb)
+            gain += k_right and not one_right
+            loss += one_right and not k_right
+    p_value = binomtest(gain, gain + loss).pvalue if gain + loss else 1.0
+    return gain, loss, p_value
+
+
 def _label(plan: dict, label: str) -> tuple:
     """The judge's verdict on a plan as a tuple that sorts better first."""
     return (-plan["p_success"],) if label == "p_success" else tuple(plan["grade"])
@@ -314,6 +341,10 @@ def _print_agreement(plans, label, ks, config, margin: float = 0.0) -> None:
                 lo, hi = wilson(c["agree"], n)
                 print(f"    {term:14} agree {c['agree']:4} of {n:4} "
                       f"({c['agree'] / max(n, 1):.0%}, 95 % [{lo:.0%}, {hi:.0%}])")
+            if k > 1:
+                gain, loss, p_value = against_one(plans, label, k, risk, config)
+                print(f"    total against K = 1 on the same pairs: right only at K = {k} in "
+                      f"{gain}, only at K = 1 in {loss} (sign test p = {p_value:.3f})")
 
 
 def main(argv=None) -> int:

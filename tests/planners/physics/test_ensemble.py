@@ -81,7 +81,7 @@ def test_member_zero_is_phi_and_members_meet_the_same_worlds(scene, baseline_pat
     config = replace(Config(), ensemble=EnsembleConfig(members=2))
     paths = {"baseline": baseline_path}
     nominal = member_rollouts(scene, paths, config, 0)["baseline"]
-    _, info = pipeline.select_path(scene, paths, config)
+    _, info = pipeline.select_path(scene, paths, Config())  # one phi: members = 1
     assert sum(nominal.terms.values()) == pytest.approx(info["objectives"]["baseline"])
     perturbed = member_rollouts(scene, paths, config, 1)["baseline"]
     assert set(perturbed.final_boxes) == set(nominal.final_boxes)
@@ -94,3 +94,6 @@ def test_member_zero_is_phi_and_members_meet_the_same_worlds(scene, baseline_pat
     assert totals["baseline"][0] == pytest.approx(sum(nominal.terms.values()))
     assert totals["baseline"][1] == pytest.approx(sum(perturbed.terms.values()))
     assert scores["baseline"] == pytest.approx(np.mean(totals["baseline"]))
+    _, info = pipeline.select_path(scene, paths, config)  # two members: ranked by the mean
+    assert info["objectives"]["baseline"] == pytest.approx(scores["baseline"])
+    assert info["members"]["baseline"] == pytest.approx(totals["baseline"])

@@ -16,21 +16,6 @@ from drake_clutter.planners.physics.ensemble import (
     member_world,
     risk_score,
 )
-from drake_clutter.scene import scenes
-
-
-@pytest.fixture(scope="module")
-def scene():
-    return scenes.load_shipped_scene("fig5_large_small")
-
-
-@pytest.fixture(scope="module")
-def baseline_path(scene):
-    from drake_clutter.planners.baseline import plan_baseline
-
-    (candidate,) = plan_baseline(scene, Config().baseline, alphas=[0.3])
-    assert candidate.ok, candidate.reason
-    return np.asarray(candidate.trajectory.q, float)
 
 
 @pytest.mark.parametrize("risk, extra, expected", [

@@ -39,11 +39,6 @@ EPS = 1e-6
 
 
 @pytest.fixture(scope="module")
-def scene():
-    return scenes.load_shipped_scene("fig5_large_small")
-
-
-@pytest.fixture(scope="module")
 def geometry(scene):
     return ArmGeometry(scene, "capsules")
 

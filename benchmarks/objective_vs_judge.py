@@ -37,7 +37,9 @@ order them as the judge does (agree / disagree; ties in the term are left out) w
 Wilson interval of the agreement (pairs share plans, so the interval is optimistic) - about
 half and half is a coin; with ``--robust`` also over the pairs whose P(success)
 differs; and per store and configuration, the physics plans whose objective is below their
-baseline's, split by the verdict (better / same / worse). ``--cache`` keeps each priced plan
+baseline's, split by the verdict (better / same / worse); and whether other weights would do:
+a linear score of the members' log terms fitted on every scene's pairs but one and tested on
+that scene's (leave one scene out). ``--cache`` keeps each priced plan
 (one JSON line), so a stopped run resumes where it stopped.
 """
 
@@ -57,6 +59,7 @@ from pathlib import Path
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
+from scipy.optimize import minimize
 from scipy.stats import binomtest
 
 from drake_clutter.common.config import load_config
@@ -253,6 +256,54 @@ def against_one(plans: list[dict], label: str, members: int, risk: str, config) 
     return gain, loss, p_value
 
 
+FIT_TERMS = ("acc", "force", "grasp", "grp_horiz", "grp_open", "motion", "static", "upright")
+
+
+def _features(plan: dict, members: int) -> np.ndarray | None:
+    """log(1 + term) of each Table I term, and phi_class_kf, averaged over the members."""
+    ms = plan["members"][:members]
+    if len(ms) < members or any(m is None or m["terms"] is None for m in ms):
+        return None
+    logs = [np.mean([np.log1p(m["terms"].get(t, 0.0)) for m in ms]) for t in FIT_TERMS]
+    return np.array([*logs, np.mean([m["phi_class_kf"] for m in ms])])
+
+
+def refit_agreement(plans: list[dict], members: int, l2: float = 1.0) -> tuple[int, int]:
+    """Could other weights make phi agree? Over the pairs of one initialization with different
+    grades, a linear score of `_features` is fitted (L2-regularised logistic loss on the
+    pairs' order) on every scene but one and tested on that scene's pairs: (right, pairs)
+    summed over the held-out scenes."""
+    rows = []
+    groups = defaultdict(list)
+    for p in plans:
+        f = _features(p, members)
+        if f is not None:
+            groups[(p["scene"], p["angle"])].append((p, f))
+    for (scene, _), group in groups.items():
+        for (a, fa), (b, fb) in itertools.combinations(group, 2):
+            if _label(a, "grade") != _label(b, "grade"):
+                rows.append((scene, fa - fb, _label(a, "grade") < _label(b, "grade")))
+    if not rows:
+        return 0, 0
+    X = np.array([r[1] for r in rows])
+    X = X / (X.std(axis=0) + 1e-9)
+    y = np.array([r[2] for r in rows], float)
+    scenes = np.array([r[0] for r in rows])
+
+    def fit(Xt, yt):  # a lower score is better: P(a better) = sigmoid(-w (f_a - f_b))
+        def loss(w):
+            z = Xt @ w
+            return np.sum(yt * np.logaddexp(0, z) + (1 - yt) * np.logaddexp(0, -z)) + l2 * w @ w
+        return minimize(loss, np.zeros(X.shape[1])).x
+
+    right = 0
+    for scene in sorted(set(scenes)):
+        held = scenes == scene
+        w = fit(X[~held], y[~held])
+        right += int(np.sum(((X[held] @ w) < 0) == (y[held] == 1)))
+    return right, len(rows)
+
+
 def _label(plan: dict, label: str) -> tuple:
     """The judge's verdict on a plan as a tuple that sorts better first."""
     return (-plan["p_success"],) if label == "p_success" else tuple(plan["grade"])
@@ -401,6 +452,11 @@ def main(argv=None) -> int:
         print("\npairs of one initialization with different robust P(success):")
         _print_agreement([p for p in plans if p["p_success"] is not None], "p_success", ks,
                          config)
+    right, n = refit_agreement(plans, max(ks))
+    lo, hi = wilson(right, n)
+    print(f"\nweights refitted on the other scenes' pairs (K = {max(ks)}, log terms and "
+          f"phi_class_kf), leave one scene out: {right} of {n} ({right / max(n, 1):.0%}, "
+          f"95 % [{lo:.0%}, {hi:.0%}])")
     print("\nphysics plans with phi's mean objective below their baseline's, by verdict:")
     for (db, config_name), counts in physics_below_baseline(plans, max(ks), config).items():
         cells = [f"{'below' if below else 'above'}: "

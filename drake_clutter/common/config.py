@@ -452,6 +452,14 @@ class PhysicsConfig:
     search_opening: float = 0.02
     # seed of the sampling search's draws, integer; ours
     search_seed: int = 0
+    # knots before the start path's first arm-box contact where search offsets begin, count; ours
+    search_lead_knots: int = 3
+    # the search scores every sample in one phi per member built once for the search, flag; ours
+    search_shared_phi: bool = True
+    # extra prune margin of that shared phi, for the samples' own sweeps, m; ours
+    search_prune_margin: float = 0.08
+    # times the search rebuilds its phis to free frozen boxes its samples reach, count; ours
+    search_rebuilds: int = 2
     # iLQR iterations of the Sec. V-B post-processing, count; ours
     post_iterations: int = 40
     # largest arm-point travel between swept-cost samples (0: fixed counts alone), m; ours

@@ -175,6 +175,11 @@ class PhiDynamics:
         (`dynamics.Phi.contact_forces`). Table I's force(q, x) for c_force."""
         return self._traced(x, u)[2].copy()
 
+    def edges(self, x: np.ndarray, u: np.ndarray) -> set:
+        """The interaction edges of phi's step from (x, u) (`dynamics.Phi.step_traced`); a
+        step already taken is not taken again."""
+        return self._traced(x, u)[1]
+
     def rollout(self, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
         """States x_0..x_T of controls ``us`` (T, 8) from x0."""
         xs = np.empty((len(us) + 1, self.layout.nx))
@@ -441,11 +446,16 @@ def active_knots(layout, steps, quiet_speed: float) -> list[int]:
     0.1 m x |w| above ``quiet_speed``, m/s; W frame)."""
     out = []
     for t, (x_next, edges, _) in enumerate(steps):
-        touching = any(ARM_NODE in e and min(e) >= 0 and max(e) > ARM_NODE for e in edges)
         speed = box_speeds(layout, x_next)
-        if touching or (len(speed) and float(speed.max()) > quiet_speed):
+        if arm_touches_box(edges) or (len(speed) and float(speed.max()) > quiet_speed):
             out.append(t)
     return out
+
+
+def arm_touches_box(edges) -> bool:
+    """Whether a step's interaction edges (`dynamics.Phi.step_traced`) join the arm to a kept
+    box (frozen boxes and the shelf are not kept boxes)."""
+    return any(ARM_NODE in e and min(e) >= 0 and max(e) > ARM_NODE for e in edges)
 
 
 def box_speeds(layout, x: np.ndarray) -> np.ndarray:

@@ -14,13 +14,15 @@ of its K objectives (``ensemble.risk``).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from drake_clutter.common.config import Config, ConfigError, EnsembleConfig
-from drake_clutter.planners.physics.stage import HoldTail, stage_problem
+from drake_clutter.phi.derivatives import arm_touches_box
+from drake_clutter.planners.physics.stage import HoldTail, StageProblem, stage_problem
 from drake_clutter.scene.perturbation import BoxPerturbation, perturb_boxes
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.solvers import ilqr
@@ -56,15 +58,61 @@ def risk_score(values: Sequence[float], ens: EnsembleConfig) -> float:
 
 @dataclass(frozen=True)
 class MemberRollout:
-    """One path in one member: its full-stage terms (None where phi failed) and every kept
+    """One path in one member: its full-stage terms (None where phi failed), every kept
     box's 13-number state (quaternion wxyz, position in W (m), angular and linear velocity)
-    at the end of the hold tail (None where phi failed)."""
+    at the end of the hold tail (None where phi failed), and whether the arm or a kept box
+    reached a box phi holds frozen (the score then misses that box's response)."""
 
     terms: dict[str, float] | None
     final_boxes: dict[str, np.ndarray] | None
+    reached_frozen: bool = False
 
 
 FAILED = MemberRollout(None, None)
+
+
+@contextmanager
+def member_problems(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
+                    knot_time: float | None = None, approach=None,
+                    extra_margin: float = 0.0) -> Iterator[list[StageProblem | None]]:
+    """Each member's full-stage `StageProblem` (capsule arm, hold tail; None where phi cannot
+    settle the member's scene), its phi pruned for all ``paths`` (T + 1, 8 each, one start)
+    with ``dynamics.prune_margin`` widened by ``extra_margin`` (m); all closed on leaving.
+    Paths scored in them (`score_in_members`) meet the same phis, whose step caches serve the
+    steps paths share."""
+    first, *others = paths.values()
+    with ExitStack() as stack:
+        problems: list[StageProblem | None] = []
+        for member in range(config.ensemble.members):
+            world, cfg = member_world(scene, config, member)
+            if extra_margin:
+                cfg = replace(cfg, dynamics=replace(
+                    cfg.dynamics, prune_margin=cfg.dynamics.prune_margin + extra_margin))
+            try:
+                problems.append(stack.enter_context(stage_problem(
+                    world, first, cfg, "capsules", pool, knot_time, approach,
+                    also=tuple(others))))
+            except (RuntimeError, ValueError):  # Drake's solver errors while settling
+                problems.append(None)
+        yield problems
+
+
+def score_in_members(problems: list[StageProblem | None], paths: dict[str, np.ndarray],
+                     config: Config) -> tuple[dict[str, float], dict[str, list[float | None]],
+                                              dict[str, bool]]:
+    """Each path's ensemble score (`risk_score`) in the members' ``problems``, its members'
+    objectives (None where phi failed) and whether any member's rollout reached a frozen
+    box."""
+    totals: dict[str, list[float | None]] = {name: [] for name in paths}
+    frozen = dict.fromkeys(paths, False)
+    for problem in problems:
+        for name, q in paths.items():
+            r = FAILED if problem is None else _rollout_or_failed(problem, q)
+            totals[name].append(None if r.terms is None else float(sum(r.terms.values())))
+            frozen[name] |= r.reached_frozen
+    scores = {name: risk_score([np.inf if v is None else v for v in values], config.ensemble)
+              for name, values in totals.items()}
+    return scores, totals, frozen
 
 
 def member_rollouts(scene: Scene, paths: dict[str, np.ndarray], config: Config, member: int,
@@ -84,33 +132,64 @@ def member_rollouts(scene: Scene, paths: dict[str, np.ndarray], config: Config, 
         return {name: FAILED for name in paths}
 
 
-def _rollout(problem, q: np.ndarray) -> MemberRollout:
+def _rollout_or_failed(problem: StageProblem, q: np.ndarray) -> MemberRollout:
+    try:
+        return _rollout(problem, q)
+    except (RuntimeError, ValueError):  # Drake's solver errors while stepping
+        return FAILED
+
+
+def _rollout(problem: StageProblem, q: np.ndarray) -> MemberRollout:
     zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
     if not np.all(np.isfinite(zs)):
         return FAILED
     terms = {k: float(v) for k, v in problem.objective.terms(zs, q[1:]).items()}
     layout = problem.dynamics.layout
+    steps = [(z[:layout.nx], u) for z, u in zip(zs[:-1], q[1:], strict=True)]
     x_end = zs[-1][:layout.nx]
     if isinstance(problem.objective, HoldTail):
-        x_end = problem.objective.tail(zs[-1])[0][-1]
+        ys, _, holds = problem.objective.tail(zs[-1])
+        x_end = ys[-1]
+        steps += list(zip(ys[:-1], holds, strict=True))
+    frozen = _reached_frozen(problem, steps)
     if not np.all(np.isfinite(x_end)):
-        return MemberRollout(terms, None)
+        return MemberRollout(terms, None, frozen)
     return MemberRollout(terms, dict(zip(layout.box_names, layout.boxes(x_end).copy(),
-                                               strict=True)))
+                                         strict=True)), frozen)
+
+
+def _reached_frozen(problem: StageProblem, steps) -> bool:
+    """Whether any of the (x, u) steps, all taken already (phi's step cache answers), reached
+    a frozen box."""
+    dynamics = problem.dynamics
+    if not dynamics.spec.frozen:
+        return False
+    return any(dynamics.phi.frozen_touched(dynamics.edges(x, u))
+               for x, u in steps if np.all(np.isfinite(x)))
+
+
+def first_contact_knot(problem: StageProblem | None, q: np.ndarray) -> int | None:
+    """The first knot t whose phi step (to knot t + 1) has the arm touching a kept box when
+    the path q (T + 1, 8) is rolled out in ``problem``; None without contact (or problem)."""
+    if problem is None:
+        return None
+    zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
+    nx = problem.dynamics.layout.nx
+    for t in range(len(q) - 1):
+        if not np.all(np.isfinite(zs[t])):
+            return None
+        if arm_touches_box(problem.dynamics.edges(zs[t][:nx], q[t + 1])):
+            return t
+    return None
 
 
 def ensemble_scores(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
                     knot_time: float | None = None, approach=None
                     ) -> tuple[dict[str, float], dict[str, list[float | None]]]:
-    """Each path's ensemble score (`risk_score` over ``ensemble.members`` members) and its
-    members' objectives (None where phi failed)."""
-    totals: dict[str, list[float | None]] = {name: [] for name in paths}
-    for member in range(config.ensemble.members):
-        rollouts = member_rollouts(scene, paths, config, member, pool, knot_time, approach)
-        for name, r in rollouts.items():
-            totals[name].append(None if r.terms is None else float(sum(r.terms.values())))
-    scores = {name: risk_score([np.inf if v is None else v for v in values], config.ensemble)
-              for name, values in totals.items()}
+    """Each path's ensemble score (`risk_score` over ``ensemble.members`` members, each phi
+    pruned for all ``paths``) and its members' objectives (None where phi failed)."""
+    with member_problems(scene, paths, config, pool, knot_time, approach) as problems:
+        scores, totals, _ = score_in_members(problems, paths, config)
     return scores, totals
 
 

@@ -324,7 +324,7 @@ def _search(scene: Scene, q: np.ndarray, baseline_q: np.ndarray, config: Config,
     steps = max_steps(config.physics, knot_time)
     found = sampling_search(scene, q, config, lo, hi, steps, pool, knot_time, (baseline_q,))
     info = {"score": found.score, "start_score": found.start_score, "rounds": found.rounds,
-            "offset": found.best.vector().tolist()}
+            "offset": found.best.vector().tolist(), "begin": found.begin}
     return found.q, info
 
 

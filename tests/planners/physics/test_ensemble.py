@@ -8,14 +8,19 @@ import numpy as np
 import pytest
 
 from drake_clutter.common.config import Config, ConfigError, EnsembleConfig, load_config
+from drake_clutter.phi.derivatives import arm_touches_box
 from drake_clutter.planners.physics import pipeline
 from drake_clutter.planners.physics.ensemble import (
     check_ensemble,
     ensemble_scores,
+    first_contact_knot,
+    member_problems,
     member_rollouts,
     member_world,
     risk_score,
+    score_in_members,
 )
+from drake_clutter.solvers import ilqr
 
 
 @pytest.mark.parametrize("risk, extra, expected", [
@@ -82,3 +87,36 @@ def test_member_zero_is_phi_and_members_meet_the_same_worlds(scene, baseline_pat
     _, info = pipeline.select_path(scene, paths, config)  # two members: ranked by the mean
     assert info["objectives"]["baseline"] == pytest.approx(scores["baseline"])
     assert info["members"]["baseline"] == pytest.approx(totals["baseline"])
+
+
+def test_scores_in_shared_members_do_not_depend_on_what_was_scored_before(scene, baseline_path):
+    """One phi per member for many paths (the search's): phi's step cache serves the steps
+    paths share, so a path scores the same after others as in members built for it alone,
+    and a path that reaches no frozen box says so."""
+    config = replace(Config(), ensemble=EnsembleConfig(members=2))
+    other = baseline_path.copy()
+    other[12:-1, 0] += 0.02  # the same first 12 knots, then another way
+    paths = {"baseline": baseline_path, "other": other}
+    with member_problems(scene, paths, config, extra_margin=0.05) as problems:
+        scores, totals, frozen = score_in_members(problems, paths, config)
+        again, _, _ = score_in_members(problems, {"other": other}, config)
+    with member_problems(scene, paths, config, extra_margin=0.05) as cold:
+        alone, _, _ = score_in_members(cold, {"other": other}, config)
+    assert np.isfinite(scores["other"]) and len(totals["other"]) == 2
+    assert again["other"] == scores["other"] == alone["other"]  # bit for bit
+    assert frozen == {"baseline": False, "other": False}
+
+
+def test_first_contact_knot_is_where_the_arm_first_touches_a_box(scene, baseline_path):
+    config = Config()
+    paths = {"baseline": baseline_path}
+    with member_problems(scene, paths, config) as (problem,):
+        t = first_contact_knot(problem, baseline_path)
+        still = np.tile(baseline_path[0], (len(baseline_path), 1))  # the arm never moves
+        assert first_contact_knot(problem, still) is None
+        assert first_contact_knot(None, baseline_path) is None
+        zs = ilqr.rollout(problem.augmented, problem.z0, baseline_path[1:])
+        nx = problem.dynamics.layout.nx
+        touching = [arm_touches_box(problem.dynamics.edges(zs[k][:nx], baseline_path[k + 1]))
+                    for k in range(len(baseline_path) - 1)]
+    assert t is not None and touching[t] and not any(touching[:t])

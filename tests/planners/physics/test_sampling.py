@@ -9,7 +9,11 @@ import pytest
 
 from drake_clutter.common.config import Config, ConfigError, load_config
 from drake_clutter.planners.physics import pipeline
-from drake_clutter.planners.physics.ensemble import ensemble_scores
+from drake_clutter.planners.physics.ensemble import (
+    first_contact_knot,
+    member_problems,
+    score_in_members,
+)
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.objective import max_steps
 from drake_clutter.planners.physics.sampling import (
@@ -30,6 +34,10 @@ def test_bump_is_zero_with_zero_slope_at_both_ends():
     assert b[0] == 0.0 and b[-1] == pytest.approx(0.0, abs=1e-30) and b[15] == pytest.approx(1)
     assert b[1] < 0.02 and b[-2] < 0.02  # zero slope: the first step is second order
     assert np.all(b >= 0) and np.all(b <= 1)
+    late = bump(31, begin=10)
+    assert np.all(late[:11] == 0.0) and late[20] == pytest.approx(1)
+    assert late[11] < 0.03 and late[-2] < 0.03
+    np.testing.assert_array_equal(bump(31, begin=0), b)
 
 
 def test_an_offset_moves_the_tool_frame_as_asked_and_keeps_both_ends(scene, baseline_path):
@@ -67,7 +75,8 @@ def test_speed_ok_allows_the_start_path_own_speed_and_the_limit():
 
 
 def test_the_search_never_returns_a_worse_path_and_keeps_the_ends(scene, baseline_path):
-    config = load_config(None, ["physics.search_rounds=1", "physics.search_samples=3"])
+    config = load_config(None, ["physics.search_rounds=1", "physics.search_samples=3",
+                                "physics.search_rebuilds=0"])
     lo, hi = _bounds()
     steps = max_steps(config.physics, config.baseline.knot_time)
     found = sampling_search(scene, baseline_path, config, lo, hi, steps)
@@ -81,14 +90,41 @@ def test_the_search_never_returns_a_worse_path_and_keeps_the_ends(scene, baselin
     other = baseline_path.copy()
     other[1:-1, 1] += 0.05  # the shoulder lifted: another start
     centred = sampling_search(scene, other, config, lo, hi, steps, alternatives=(baseline_path,))
-    scores, _ = ensemble_scores(scene, {"a": other, "b": baseline_path}, config)
+    starts = {"a": other, "b": baseline_path}
+    margin = config.physics.search_prune_margin  # the search's phi: one for all its paths
+    with member_problems(scene, starts, config, extra_margin=margin) as problems:
+        scores, _, _ = score_in_members(problems, starts, config)
     assert centred.start_score == pytest.approx(min(scores.values()))  # the better start
     assert centred.score <= centred.start_score
 
 
+def test_the_offsets_begin_before_the_first_contact_and_spare_the_knots_before(
+        scene, baseline_path):
+    """Every sample keeps the start's knots up to ``begin``, which lies ``search_lead_knots``
+    before the arm first touches a box; the reference search (a phi per round) offsets from
+    knot 0; both record what they scored."""
+    config = load_config(None, ["physics.search_rounds=1", "physics.search_samples=2"])
+    lo, hi = _bounds()
+    steps = max_steps(config.physics, config.baseline.knot_time)
+    found = sampling_search(scene, baseline_path, config, lo, hi, steps)
+    with member_problems(scene, {"q": baseline_path}, config,
+                         extra_margin=config.physics.search_prune_margin) as (problem,):
+        contact = first_contact_knot(problem, baseline_path)
+    assert contact is not None
+    assert found.begin == max(0, contact + 1 - config.physics.search_lead_knots) > 0
+    np.testing.assert_array_equal(found.q[:found.begin + 1], baseline_path[:found.begin + 1])
+    np.testing.assert_array_equal(found.centre, baseline_path)
+    assert found.rounds[0]["reached_frozen"] <= found.rounds[0]["kept"]
+    assert found.score <= found.start_score
+    reference = replace(config, physics=replace(config.physics, search_shared_phi=False))
+    ref = sampling_search(scene, baseline_path, reference, lo, hi, steps)
+    assert ref.begin == 0 and ref.score <= ref.start_score
+
+
 @pytest.mark.parametrize("field, value", [
     ("search_rounds", "0"), ("search_samples", "0"), ("search_elite", "0"),
-    ("search_lateral", "-0.01"), ("search_opening", "0.2"),
+    ("search_lateral", "-0.01"), ("search_opening", "0.2"), ("search_lead_knots", "-1"),
+    ("search_prune_margin", "-0.01"),
 ])
 def test_bad_search_settings_are_config_errors(field, value):
     with pytest.raises(ConfigError, match=f"physics.{field}"):

@@ -27,7 +27,7 @@ import numpy as np
 from drake_clutter.common.config import load_config
 from drake_clutter.evaluation.judge import evaluate
 from drake_clutter.evaluation.outcome import outcome_grade
-from drake_clutter.experiments.report import verdict
+from drake_clutter.experiments.paired import verdict
 from drake_clutter.experiments.specs import load_spec, plan_one_angle
 from drake_clutter.experiments.store import Store
 from drake_clutter.scene import scenes

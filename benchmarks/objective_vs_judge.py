@@ -66,7 +66,7 @@ from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.evaluation.judge import evaluate, off_the_board, target_zone_reason
 from drake_clutter.evaluation.outcome import outcome_grade
-from drake_clutter.experiments.report import row_grade, verdict
+from drake_clutter.experiments.paired import row_grade, verdict
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store
 from drake_clutter.planners.physics.ensemble import member_rollouts, risk_score

@@ -212,14 +212,23 @@ def _cmd_experiment_run(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from drake_clutter.experiments.report import check_report_config, write_report
+    from drake_clutter.experiments.report import (
+        check_report_config,
+        physics_configurations,
+        write_report,
+    )
     from drake_clutter.experiments.store import Store
 
     config = _load_config(args)
     check_report_config(config.report, args.config or "<command line>")
     with Store(args.db, create=False) as store:
         rows = store.rows()
-    paths = write_report(rows, args.out, source=str(args.db), config=config.report)
+    configs = physics_configurations(rows)
+    if args.against is not None and args.against not in configs:
+        raise InputError(str(args.db), "--against", f"no physics configuration "
+                         f"{args.against!r} in the store (it has: {', '.join(configs) or 'none'})")
+    paths = write_report(rows, args.out, source=str(args.db), config=config.report,
+                         reference=args.against)
     print(f"{len(rows)} rows from {args.db}; wrote {', '.join(sorted(paths))} to {args.out}")
     return 0
 
@@ -320,6 +329,9 @@ def build_parser() -> argparse.ArgumentParser:
     rep = groups.add_parser("report", help="Tables III/IV and Fig. 9 from a store")
     rep.add_argument("db", help="an experiment store (SQLite)")
     rep.add_argument("--out", required=True, help="directory for the Markdown, CSV and PNGs")
+    rep.add_argument("--against", metavar="CONFIGURATION",
+                     help="compare every other physics configuration with this one per "
+                          "initialization (default: the store's first, when it has two)")
     _add_config_args(rep)
     rep.set_defaults(func=_cmd_report)
 

@@ -37,14 +37,18 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import binomtest, wilcoxon
 
 from drake_clutter.common.config import BaselineConfig, ConfigError, ReportConfig
-from drake_clutter.evaluation.outcome import (
-    GRADE_CLASSES,
-    OUTCOME_KINDS,
-    behaviour_grade,
-    scene_score,
+from drake_clutter.evaluation.outcome import OUTCOME_KINDS, scene_score
+from drake_clutter.experiments.paired import (
+    bootstrap_interval,
+    configuration_comparison,
+    configuration_rows,
+    markdown_paired,
+    paired_comparison,
+    paired_rows,
+    row_kinds,
+    row_p_success,
 )
 from drake_clutter.planners.selection import selection_score as planner_selection_score
 
@@ -160,125 +164,6 @@ def table_iv(rows: list[dict]) -> list[dict]:
         out.append({"configuration": config, "planner": planner, "outcome": "planner_failure",
                     "count": kinds.count("planner_failure"), "pct": None, "robust_pct": None,
                     "paper_pct": None})
-    return out
-
-
-def _robust(row: dict) -> dict | None:
-    """The robust judge's summary data of a stored row (`robust.RobustSummary.to_data`), or
-    None for a row judged once."""
-    return (row.get("outcome") or {}).get("robust")
-
-
-def row_p_success(row: dict, partial: bool = False) -> float:
-    """A stored row's P(success) (or P(success or partial success)): the robust judge's over
-    its K replays, else 1 or 0 by its one (nominal) outcome."""
-    robust = _robust(row)
-    if robust:
-        return float(robust["p_success_or_partial" if partial else "p_success"])
-    return float(row["kind"] in (("success", "partial_success") if partial else ("success",)))
-
-
-def row_expected_grade(row: dict) -> float:
-    """A stored row's expected grade class (0 success .. 4 no plan): the robust judge's mean
-    over its K replays, else its one outcome's class."""
-    robust = _robust(row)
-    if robust:
-        return float(robust["expected_grade"])
-    return float(GRADE_CLASSES[row["kind"]])
-
-
-def row_kinds(row: dict) -> list[str]:
-    """The classes of a stored row's replays: the robust judge's K, else its one kind."""
-    robust = _robust(row)
-    return list(robust["kinds"]) if robust else [row["kind"]]
-
-
-def row_grade(row: dict) -> tuple[int, int]:
-    """`behaviour_grade` of a stored row (its kind and the boxes of its outcome)."""
-    boxes = (row.get("outcome") or {}).get("boxes", [])
-    return behaviour_grade(row["kind"], sum(bool(b.get("tipped") or b.get("fallen"))
-                                            for b in boxes))
-
-
-def verdict(physics: tuple[int, int], baseline: tuple[int, int]) -> str:
-    """'better', 'same' or 'worse': the physics plan's grade against the baseline's."""
-    return "better" if physics < baseline else "same" if physics == baseline else "worse"
-
-
-def paired_rows(rows: list[dict]) -> list[dict]:
-    """One row per physics unit that has a baseline unit of the same scene, angle and
-    configuration: both kinds, both grades and the verdict (better / same / worse)."""
-    base = {(r["config_name"], r["scene"], r["angle"]): r for r in rows
-            if r["planner"] == "baseline"}
-    out = []
-    for r in rows:
-        b = base.get((r["config_name"], r["scene"], r["angle"]))
-        if r["planner"] != "physics" or b is None:
-            continue
-        gp, gb = row_grade(r), row_grade(b)
-        out.append({"configuration": r["config_name"], "scene": r["scene"], "angle": r["angle"],
-                    "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
-                    "physics_grade": gp, "verdict": verdict(gp, gb),
-                    "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
-                    "baseline_expected_grade": row_expected_grade(b),
-                    "physics_expected_grade": row_expected_grade(r)})
-    return out
-
-
-def bootstrap_interval(values, config: ReportConfig) -> tuple[float, float]:
-    """The percentile bootstrap interval (``config.confidence``) of the mean of ``values``,
-    ``config.bootstrap_resamples`` resamples seeded with ``config.bootstrap_seed``."""
-    values = np.asarray(values, dtype=float)
-    if len(values) == 0:
-        return (float("nan"), float("nan"))
-    rng = np.random.default_rng(config.bootstrap_seed)
-    means = values[rng.integers(0, len(values), (config.bootstrap_resamples, len(values)))]
-    tail = 50.0 * (1.0 - config.confidence)
-    low, high = np.percentile(means.mean(axis=1), [tail, 100.0 - tail])
-    return float(low), float(high)
-
-
-def signed_rank_p(differences) -> float | None:
-    """Two-sided Wilcoxon signed-rank p-value of paired differences (zeros dropped); None
-    when every difference is zero."""
-    nonzero = [d for d in differences if d != 0]
-    if not nonzero:
-        return None
-    return float(wilcoxon(nonzero).pvalue)
-
-
-def _mean_difference(pairs: list[dict], key: str, config: ReportConfig) -> dict:
-    """Mean of physics minus baseline in ``key`` over the pairs, its interval and p-value."""
-    diffs = [p[f"physics_{key}"] - p[f"baseline_{key}"] for p in pairs]
-    low, high = bootstrap_interval(diffs, config)
-    return {f"{key}_diff": float(np.mean(diffs)), f"{key}_ci_low": low,
-            f"{key}_ci_high": high, f"{key}_wilcoxon_p": signed_rank_p(diffs)}
-
-
-def paired_comparison(rows: list[dict], settings: ReportConfig | None = None) -> list[dict]:
-    """Per configuration: pairs, better / same / worse, kinematic failures of each planner,
-    the two-sided sign test's p-value on better against worse (None when all tie), and the
-    mean difference physics minus baseline per initialization in P(success) and in expected
-    grade class, each with its bootstrap interval (``settings``) and Wilcoxon signed-rank
-    p-value."""
-    settings = settings or ReportConfig()
-    by_config: dict[str, list[dict]] = {}
-    for p in paired_rows(rows):
-        by_config.setdefault(p["configuration"], []).append(p)
-    out = []
-    for config, pairs in by_config.items():
-        verdicts = [p["verdict"] for p in pairs]
-        better, worse = verdicts.count("better"), verdicts.count("worse")
-        out.append({"configuration": config, "pairs": len(pairs), "better": better,
-                    "same": verdicts.count("same"), "worse": worse,
-                    "physics_kinematic_failures": sum(p["physics"] == "kinematic_failure"
-                                                      for p in pairs),
-                    "baseline_kinematic_failures": sum(p["baseline"] == "kinematic_failure"
-                                                       for p in pairs),
-                    "sign_test_p": (binomtest(better, better + worse).pvalue
-                                    if better + worse else None),
-                    **_mean_difference(pairs, "p_success", settings),
-                    **_mean_difference(pairs, "expected_grade", settings)})
     return out
 
 
@@ -461,30 +346,6 @@ def markdown_fig9(data: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def _p(value: float | None) -> str:
-    return "-" if value is None else f"{value:.3f}"
-
-
-def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> str:
-    """The paired comparison as Markdown: better / same / worse with the sign test, and the
-    mean differences (physics minus baseline) with their intervals and Wilcoxon p-values."""
-    level = f"{100 * (config or ReportConfig()).confidence:g} %"
-    lines = ["| configuration | pairs | physics better | same | worse | kinematic failures "
-             f"physics / baseline | sign test p | P(success) difference [{level} CI] | "
-             f"Wilcoxon p | expected grade difference [{level} CI] | Wilcoxon p |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    for r in table:
-        lines.append(f"| {r['configuration']} | {r['pairs']} | {r['better']} | {r['same']} | "
-                     f"{r['worse']} | {r['physics_kinematic_failures']} / "
-                     f"{r['baseline_kinematic_failures']} | {_p(r['sign_test_p'])} | "
-                     f"{r['p_success_diff']:+.3f} [{r['p_success_ci_low']:+.3f}, "
-                     f"{r['p_success_ci_high']:+.3f}] | {_p(r['p_success_wilcoxon_p'])} | "
-                     f"{r['expected_grade_diff']:+.3f} [{r['expected_grade_ci_low']:+.3f}, "
-                     f"{r['expected_grade_ci_high']:+.3f}] | "
-                     f"{_p(r['expected_grade_wilcoxon_p'])} |")
-    return "\n".join(lines)
-
-
 PHI_STAGES = ("sphere", "full")  # the physics plan's stages through phi (its details' names)
 SELECTIONS = ("post", "pre", "baseline", "search")  # the paths the physics planner chooses among
 
@@ -608,13 +469,24 @@ def _write_csv(path: Path, table: list[dict]) -> None:
         writer.writerows(table)
 
 
+def physics_configurations(rows: list[dict]) -> list[str]:
+    """The configurations with physics rows, in the store's order."""
+    return list(dict.fromkeys(r["config_name"] for r in rows if r["planner"] == "physics"))
+
+
 def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
-                 config: ReportConfig | None = None) -> dict[str, Path]:
+                 config: ReportConfig | None = None,
+                 reference: str | None = None) -> dict[str, Path]:
     """Writes report.md, table3.{md,csv}, table4.{md,csv}, fig9.csv, fig9a/b/c.png, fig9.png
     (the three panels together), paired.csv (physics against the baseline per
-    initialization) and stages.csv (`stage_statistics`) into ``out_dir`` (created); returns
-    the paths by name. ``config``: the paired comparison's bootstrap settings."""
+    initialization), configurations.csv (every other physics configuration against the
+    ``reference`` one per initialization; default the store's first, when it has two or more)
+    and stages.csv (`stage_statistics`) into ``out_dir`` (created); returns the paths by
+    name. ``config``: the paired comparison's bootstrap settings."""
     config = config or ReportConfig()
+    physics_configs = physics_configurations(rows)
+    if reference is None and len(physics_configs) > 1:
+        reference = physics_configs[0]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t3, t4, f9 = table_iii(rows), table_iv(rows), fig9_data(rows)
@@ -630,6 +502,17 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     _write_csv(paths["table4.csv"], t4)
     _write_csv(paths["fig9.csv"], f9)
     _write_csv(paths["paired.csv"], paired_rows(rows))
+    against = []
+    if reference is not None:
+        paths["configurations.csv"] = out / "configurations.csv"
+        _write_csv(paths["configurations.csv"], configuration_rows(rows, reference))
+        against = ["## Physics configurations against each other", "",
+                   f"Each other configuration's physics plan against the `{reference}` "
+                   "configuration's at the same scene and angle (the same initialization): "
+                   "the columns read as above, \"physics\" the other configuration and "
+                   f"\"baseline\" `{reference}`. Per pair: configurations.csv.", "",
+                   markdown_paired(configuration_comparison(rows, reference, config), config),
+                   ""]
     stages = stage_statistics(rows)
     _write_csv(paths["stages.csv"], stages)
     selected = selected_plan_success(rows, config)
@@ -656,7 +539,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "paired.csv. The differences are per initialization, physics minus baseline: "
             "P(success) (the robust judge's over its replays, else 1 or 0) and the expected "
             "grade class (lower is better), with a seeded percentile bootstrap interval.", "",
-            markdown_paired(paired_comparison(rows, config), config), "",
+            markdown_paired(paired_comparison(rows, config), config), "", *against,
             "## The plan each planner would execute", "",
             "The paper scores a scene by its best angle, which only the judge can pick. Here "
             "each planner picks its own candidate without the judge - the baseline by its "

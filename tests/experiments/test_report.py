@@ -10,12 +10,15 @@ import pytest
 
 from drake_clutter.cli import main
 from drake_clutter.common.config import ReportConfig
-from drake_clutter.experiments.report import (
-    PAPER_TABLE_III,
+from drake_clutter.experiments.paired import (
     bootstrap_interval,
-    markdown_stages,
+    configuration_comparison,
     paired_comparison,
     paired_rows,
+)
+from drake_clutter.experiments.report import (
+    PAPER_TABLE_III,
+    markdown_stages,
     selected_plan_success,
     selected_rows,
     selection_score,
@@ -280,3 +283,52 @@ def test_selected_plan_success_takes_each_planners_own_first_choice():
     assert summary["physics_best_angle"] == pytest.approx((1.0 + 1.0) / 2)
     assert summary["selected_diff"] == pytest.approx(0.25 / 2 - 0.5 / 2)
     assert summary["selected_ci_low"] <= summary["selected_diff"] <= summary["selected_ci_high"]
+
+
+def _fill_two_configurations(db) -> list[dict]:
+    """The physics planner in two configurations over the same initializations: 'plain'
+    (failure to grasp, success, kinematic failure) and 'search' (success, success, failure to
+    grasp), the baseline once per configuration."""
+    kinds = {"plain": ["failure_to_grasp", "success", "kinematic_failure"],
+             "search": ["success", "success", "failure_to_grasp"]}
+    with Store(db) as store:
+        for config, physics in kinds.items():
+            for angle, kind in enumerate(physics):
+                for planner, k in (("physics", kind), ("baseline", "failure_to_grasp")):
+                    unit = {"scene": "fig5", "planner": planner, "angle": angle,
+                            "config_hash": config, "config_name": config, "kind": "bookshelf",
+                            "num_objects": 3}
+                    store.put(unit, {"alpha": 0.1 * angle, "outcome": {"kind": k},
+                                     "plan": {"status": "ok"}, "timings": {}, "error": ""})
+        return store.rows()
+
+
+@pytest.mark.filterwarnings("ignore:No artists with labels")  # no fridge scene: empty Fig. 9b
+def test_configurations_are_compared_on_the_same_initializations(tmp_path, capsys):
+    rows = _fill_two_configurations(tmp_path / "c.db")
+    (summary,) = configuration_comparison(rows, "plain")
+    assert summary["configuration"] == "search vs plain"
+    assert (summary["pairs"], summary["better"], summary["same"], summary["worse"]) == (3, 2, 1, 0)
+    assert summary["p_success_diff"] == pytest.approx(1 / 3)  # search minus plain
+    assert summary["physics_kinematic_failures"] == 0
+    assert summary["baseline_kinematic_failures"] == 1  # plain's
+    assert configuration_comparison(rows, "search")[0]["p_success_diff"] == pytest.approx(-1 / 3)
+    out = tmp_path / "report"
+    assert main(["report", str(tmp_path / "c.db"), "--out", str(out)]) == 0
+    text = (out / "report.md").read_text()
+    assert "against each other" in text and "search vs plain" in text  # the first: reference
+    with (out / "configurations.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == 3
+    assert main(["report", str(tmp_path / "c.db"), "--out", str(out), "--against", "search"]) == 0
+    assert "plain vs search" in (out / "report.md").read_text()
+    assert main(["report", str(tmp_path / "c.db"), "--out", str(out), "--against", "nope"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--against" in err[0] and "plain, search" in err[0]
+
+
+def test_a_store_with_one_physics_configuration_has_no_configuration_table(tmp_path):
+    _fill(tmp_path / "r.db")
+    out = tmp_path / "report"
+    assert main(["report", str(tmp_path / "r.db"), "--out", str(out)]) == 0
+    assert "against each other" not in (out / "report.md").read_text()
+    assert not (out / "configurations.csv").exists()

@@ -27,8 +27,9 @@ samples' own sweeps stay inside it; the shared knots' phi steps are then taken o
 step cache). A round whose samples reach boxes that phi holds frozen rebuilds the members,
 pruned for those samples too, and is scored again (``search_rebuilds`` times at most; the best
 path so far is priced again in the new members); a sample that still reaches one is not
-scored (its score would miss that box) and is counted. Without ``search_shared_phi`` each round's samples
-get their own exactly pruned phis (`ensemble.ensemble_scores`), as a reference.
+scored (its score would miss that box) and is counted. Without ``search_shared_phi`` each
+round's samples get their own exactly pruned phis (`ensemble.ensemble_scores`), as a
+reference.
 """
 
 from __future__ import annotations

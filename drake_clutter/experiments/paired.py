@@ -1,0 +1,195 @@
+"""Paired statistics of an experiment store's rows: each physics plan against the baseline
+plan of its initialization (Sec. VI-A's grade over many initializations), and physics
+configurations against one another on the same initializations.
+
+* Per row: P(success) and expected grade class (the robust judge's over its replays, else the
+  one outcome's), its behaviour grade (class, then boxes tipped or fallen).
+* Per configuration: better / same / worse by the grade, the kinematic failures of each side,
+  a two-sided sign test on better against worse (ties left out), and the mean per-
+  initialization difference in P(success) and in expected grade with a seeded percentile
+  bootstrap interval and a Wilcoxon signed-rank p-value. One plan per scene is a draw on
+  toppling clutter; this is the fair reading.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import binomtest, wilcoxon
+
+from drake_clutter.common.config import ReportConfig
+from drake_clutter.evaluation.outcome import GRADE_CLASSES, behaviour_grade
+
+
+def _robust(row: dict) -> dict | None:
+    """The robust judge's summary data of a stored row (`robust.RobustSummary.to_data`), or
+    None for a row judged once."""
+    return (row.get("outcome") or {}).get("robust")
+
+
+def row_p_success(row: dict, partial: bool = False) -> float:
+    """A stored row's P(success) (or P(success or partial success)): the robust judge's over
+    its K replays, else 1 or 0 by its one (nominal) outcome."""
+    robust = _robust(row)
+    if robust:
+        return float(robust["p_success_or_partial" if partial else "p_success"])
+    return float(row["kind"] in (("success", "partial_success") if partial else ("success",)))
+
+
+def row_expected_grade(row: dict) -> float:
+    """A stored row's expected grade class (0 success .. 4 no plan): the robust judge's mean
+    over its K replays, else its one outcome's class."""
+    robust = _robust(row)
+    if robust:
+        return float(robust["expected_grade"])
+    return float(GRADE_CLASSES[row["kind"]])
+
+
+def row_kinds(row: dict) -> list[str]:
+    """The classes of a stored row's replays: the robust judge's K, else its one kind."""
+    robust = _robust(row)
+    return list(robust["kinds"]) if robust else [row["kind"]]
+
+
+def row_grade(row: dict) -> tuple[int, int]:
+    """`behaviour_grade` of a stored row (its kind and the boxes of its outcome)."""
+    boxes = (row.get("outcome") or {}).get("boxes", [])
+    return behaviour_grade(row["kind"], sum(bool(b.get("tipped") or b.get("fallen"))
+                                            for b in boxes))
+
+
+def verdict(physics: tuple[int, int], baseline: tuple[int, int]) -> str:
+    """'better', 'same' or 'worse': the physics plan's grade against the baseline's."""
+    return "better" if physics < baseline else "same" if physics == baseline else "worse"
+
+
+def paired_rows(rows: list[dict]) -> list[dict]:
+    """One row per physics unit that has a baseline unit of the same scene, angle and
+    configuration: both kinds, both grades and the verdict (better / same / worse)."""
+    base = {(r["config_name"], r["scene"], r["angle"]): r for r in rows
+            if r["planner"] == "baseline"}
+    out = []
+    for r in rows:
+        b = base.get((r["config_name"], r["scene"], r["angle"]))
+        if r["planner"] != "physics" or b is None:
+            continue
+        gp, gb = row_grade(r), row_grade(b)
+        out.append({"configuration": r["config_name"], "scene": r["scene"], "angle": r["angle"],
+                    "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
+                    "physics_grade": gp, "verdict": verdict(gp, gb),
+                    "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
+                    "baseline_expected_grade": row_expected_grade(b),
+                    "physics_expected_grade": row_expected_grade(r)})
+    return out
+
+
+def bootstrap_interval(values, config: ReportConfig) -> tuple[float, float]:
+    """The percentile bootstrap interval (``config.confidence``) of the mean of ``values``,
+    ``config.bootstrap_resamples`` resamples seeded with ``config.bootstrap_seed``."""
+    values = np.asarray(values, dtype=float)
+    if len(values) == 0:
+        return (float("nan"), float("nan"))
+    rng = np.random.default_rng(config.bootstrap_seed)
+    means = values[rng.integers(0, len(values), (config.bootstrap_resamples, len(values)))]
+    tail = 50.0 * (1.0 - config.confidence)
+    low, high = np.percentile(means.mean(axis=1), [tail, 100.0 - tail])
+    return float(low), float(high)
+
+
+def signed_rank_p(differences) -> float | None:
+    """Two-sided Wilcoxon signed-rank p-value of paired differences (zeros dropped); None
+    when every difference is zero."""
+    nonzero = [d for d in differences if d != 0]
+    if not nonzero:
+        return None
+    return float(wilcoxon(nonzero).pvalue)
+
+
+def _mean_difference(pairs: list[dict], key: str, config: ReportConfig) -> dict:
+    """Mean of physics minus baseline in ``key`` over the pairs, its interval and p-value."""
+    diffs = [p[f"physics_{key}"] - p[f"baseline_{key}"] for p in pairs]
+    low, high = bootstrap_interval(diffs, config)
+    return {f"{key}_diff": float(np.mean(diffs)), f"{key}_ci_low": low,
+            f"{key}_ci_high": high, f"{key}_wilcoxon_p": signed_rank_p(diffs)}
+
+
+def paired_comparison(rows: list[dict], settings: ReportConfig | None = None) -> list[dict]:
+    """Per configuration: pairs, better / same / worse, kinematic failures of each planner,
+    the two-sided sign test's p-value on better against worse (None when all tie), and the
+    mean difference physics minus baseline per initialization in P(success) and in expected
+    grade class, each with its bootstrap interval (``settings``) and Wilcoxon signed-rank
+    p-value."""
+    return _summaries(paired_rows(rows), settings or ReportConfig())
+
+
+def _summaries(pairs_in: list[dict], settings: ReportConfig) -> list[dict]:
+    by_config: dict[str, list[dict]] = {}
+    for p in pairs_in:
+        by_config.setdefault(p["configuration"], []).append(p)
+    out = []
+    for config, pairs in by_config.items():
+        verdicts = [p["verdict"] for p in pairs]
+        better, worse = verdicts.count("better"), verdicts.count("worse")
+        out.append({"configuration": config, "pairs": len(pairs), "better": better,
+                    "same": verdicts.count("same"), "worse": worse,
+                    "physics_kinematic_failures": sum(p["physics"] == "kinematic_failure"
+                                                      for p in pairs),
+                    "baseline_kinematic_failures": sum(p["baseline"] == "kinematic_failure"
+                                                       for p in pairs),
+                    "sign_test_p": (binomtest(better, better + worse).pvalue
+                                    if better + worse else None),
+                    **_mean_difference(pairs, "p_success", settings),
+                    **_mean_difference(pairs, "expected_grade", settings)})
+    return out
+
+
+def configuration_rows(rows: list[dict], reference: str) -> list[dict]:
+    """One row per physics unit of another configuration that has a physics unit of the
+    ``reference`` configuration at the same scene and angle, shaped as `paired_rows` (the
+    other configuration in the "physics" fields, the reference in the "baseline" ones)."""
+    ref = {(r["scene"], r["angle"]): r for r in rows
+           if r["planner"] == "physics" and r["config_name"] == reference}
+    out = []
+    for r in rows:
+        b = ref.get((r["scene"], r["angle"]))
+        if r["planner"] != "physics" or r["config_name"] == reference or b is None:
+            continue
+        gp, gb = row_grade(r), row_grade(b)
+        out.append({"configuration": f"{r['config_name']} vs {reference}", "scene": r["scene"],
+                    "angle": r["angle"], "baseline": b["kind"], "baseline_grade": gb,
+                    "physics": r["kind"], "physics_grade": gp, "verdict": verdict(gp, gb),
+                    "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
+                    "baseline_expected_grade": row_expected_grade(b),
+                    "physics_expected_grade": row_expected_grade(r)})
+    return out
+
+
+def configuration_comparison(rows: list[dict], reference: str,
+                             settings: ReportConfig | None = None) -> list[dict]:
+    """`paired_comparison`'s figures for every other physics configuration against the
+    ``reference`` physics configuration on the same initializations (other minus reference;
+    "baseline" fields hold the reference's)."""
+    return _summaries(configuration_rows(rows, reference), settings or ReportConfig())
+
+
+def _p(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3f}"
+
+
+def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> str:
+    """The paired comparison as Markdown: better / same / worse with the sign test, and the
+    mean differences (physics minus baseline) with their intervals and Wilcoxon p-values."""
+    level = f"{100 * (config or ReportConfig()).confidence:g} %"
+    lines = ["| configuration | pairs | physics better | same | worse | kinematic failures "
+             f"physics / baseline | sign test p | P(success) difference [{level} CI] | "
+             f"Wilcoxon p | expected grade difference [{level} CI] | Wilcoxon p |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for r in table:
+        lines.append(f"| {r['configuration']} | {r['pairs']} | {r['better']} | {r['same']} | "
+                     f"{r['worse']} | {r['physics_kinematic_failures']} / "
+                     f"{r['baseline_kinematic_failures']} | {_p(r['sign_test_p'])} | "
+                     f"{r['p_success_diff']:+.3f} [{r['p_success_ci_low']:+.3f}, "
+                     f"{r['p_success_ci_high']:+.3f}] | {_p(r['p_success_wilcoxon_p'])} | "
+                     f"{r['expected_grade_diff']:+.3f} [{r['expected_grade_ci_low']:+.3f}, "
+                     f"{r['expected_grade_ci_high']:+.3f}] | "
+                     f"{_p(r['expected_grade_wilcoxon_p'])} |")
+    return "\n".join(lines)

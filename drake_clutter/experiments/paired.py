@@ -67,19 +67,20 @@ def paired_rows(rows: list[dict]) -> list[dict]:
     configuration: both kinds, both grades and the verdict (better / same / worse)."""
     base = {(r["config_name"], r["scene"], r["angle"]): r for r in rows
             if r["planner"] == "baseline"}
-    out = []
-    for r in rows:
-        b = base.get((r["config_name"], r["scene"], r["angle"]))
-        if r["planner"] != "physics" or b is None:
-            continue
-        gp, gb = row_grade(r), row_grade(b)
-        out.append({"configuration": r["config_name"], "scene": r["scene"], "angle": r["angle"],
-                    "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
-                    "physics_grade": gp, "verdict": verdict(gp, gb),
-                    "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
-                    "baseline_expected_grade": row_expected_grade(b),
-                    "physics_expected_grade": row_expected_grade(r)})
-    return out
+    return [_pair(r["config_name"], r, base[(r["config_name"], r["scene"], r["angle"])])
+            for r in rows if r["planner"] == "physics"
+            and (r["config_name"], r["scene"], r["angle"]) in base]
+
+
+def _pair(configuration: str, r: dict, b: dict) -> dict:
+    """Row r ("physics" fields) against row b ("baseline" fields) of the same initialization."""
+    gp, gb = row_grade(r), row_grade(b)
+    return {"configuration": configuration, "scene": r["scene"], "angle": r["angle"],
+            "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
+            "physics_grade": gp, "verdict": verdict(gp, gb),
+            "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
+            "baseline_expected_grade": row_expected_grade(b),
+            "physics_expected_grade": row_expected_grade(r)}
 
 
 def bootstrap_interval(values, config: ReportConfig) -> tuple[float, float]:
@@ -148,19 +149,9 @@ def configuration_rows(rows: list[dict], reference: str) -> list[dict]:
     other configuration in the "physics" fields, the reference in the "baseline" ones)."""
     ref = {(r["scene"], r["angle"]): r for r in rows
            if r["planner"] == "physics" and r["config_name"] == reference}
-    out = []
-    for r in rows:
-        b = ref.get((r["scene"], r["angle"]))
-        if r["planner"] != "physics" or r["config_name"] == reference or b is None:
-            continue
-        gp, gb = row_grade(r), row_grade(b)
-        out.append({"configuration": f"{r['config_name']} vs {reference}", "scene": r["scene"],
-                    "angle": r["angle"], "baseline": b["kind"], "baseline_grade": gb,
-                    "physics": r["kind"], "physics_grade": gp, "verdict": verdict(gp, gb),
-                    "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
-                    "baseline_expected_grade": row_expected_grade(b),
-                    "physics_expected_grade": row_expected_grade(r)})
-    return out
+    return [_pair(f"{r['config_name']} vs {reference}", r, ref[(r["scene"], r["angle"])])
+            for r in rows if r["planner"] == "physics" and r["config_name"] != reference
+            and (r["scene"], r["angle"]) in ref]
 
 
 def configuration_comparison(rows: list[dict], reference: str,

@@ -235,7 +235,8 @@ def _search_rounds(scene: Scene, starts: dict[str, np.ndarray], config: Config,
         if elite:
             mean = np.mean(elite, axis=0)
             std = np.maximum(np.std(elite, axis=0), 0.1 * ranges)
-    final, _ = score({"centre": start, "best": best_q})  # step caches: no new rollouts
+    # Shared members: both already rolled out there (step caches); else fresh members.
+    final, _ = score({"centre": start, "best": best_q})
     if not final["best"] < final["centre"]:
         best_q, best = start, PathOffset()
     return SearchResult(best_q, min(final["best"], final["centre"]), final["centre"], rounds,

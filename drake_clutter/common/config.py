@@ -396,6 +396,12 @@ class PhysicsConfig:
     w_match_vel: float = 1.0
     # knots phi runs past Delta with the arm held (Table II's "all"), count; ours
     hold_knots: int = 5
+    # weight of c_settled_upright, each box's tilt (rad) at the hold tail's end, unitless; ours
+    w_settled_upright: float = 0.0
+    # weight of c_settled_fall, each box's saturated distance off the board there, unitless; ours
+    w_settled_fall: float = 0.0
+    # distance off the board at which a box's c_settled_fall is half its weight, m; ours
+    settled_fall_scale: float = 0.02
     # derivative stride of the hold knots' Jacobians (None: dynamics'), count; ours
     hold_derivative_stride: int | None = None
     # weight of c_speed, the squared excess over the speed cap, unitless; ours

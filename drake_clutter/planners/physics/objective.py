@@ -254,6 +254,8 @@ class PhysicsObjective:
         out.update(self._box_terms(z))
         if terminal:
             out.update(self._terminal(z))
+            if cfg.hold_knots == 0:  # no tail: Delta's state is the one left to settle
+                out.update(self.settled_terms(z))
         if approach and self.approach is not None:
             out.update(self._approach(z))
         return out
@@ -310,6 +312,36 @@ class PhysicsObjective:
             upright = _add(upright, _embed(u, [start, start + 1, start + 2], nz))
         return {"motion": motion.scaled(self.config.w_motion),
                 "upright": upright.scaled(self.config.w_upright)}
+
+    def settled_terms(self, z: np.ndarray) -> dict[str, Term]:
+        """Weighted box-fate terms over dz on a settled state z (the hold tail's last knot),
+        priced as the judge grades it (Sec. III; weights in judge-equivalents, see
+        docs/decisions.md): c_settled_fall, each kept box's `costs.off_board` share F, and
+        c_settled_upright, each box's tilt theta (rad, as c_upright) times (1 - F): a box that
+        fell is priced as fallen, not by how it tumbled. Gauss-Newton: the product's cross
+        curvature is left out. Empty when both weights are 0."""
+        cfg = self.config
+        if cfg.w_settled_upright <= 0.0 and cfg.w_settled_fall <= 0.0:
+            return {}
+        shelf = self.geometry.scene.shelf
+        centre, half = np.array(shelf.center_xy), np.array([shelf.depth, shelf.width]) / 2
+        nz = self.nz
+        upright = Term(0.0, np.zeros(nz), np.zeros((nz, nz)))
+        fall = Term(0.0, np.zeros(nz), np.zeros((nz, nz)))
+        for i, b in enumerate(self.layout.boxes(z[:self.nx])):
+            start = ARM_DIM + BOX_TANGENT * i
+            f = costs.off_board(b[4:7], centre, half, shelf.top_height, cfg.settled_fall_scale)
+            u = costs.upright(box_state_to_pose(b).rotation().matrix(), gauss_newton=True,
+                              majorize=True, tilt=True)
+            kept = 1.0 - f.value
+            hessian = np.zeros((6, 6))
+            hessian[:3, :3] = kept * u.hessian
+            on_board = Term(u.value * kept, np.r_[kept * u.gradient, -u.value * f.gradient],
+                            hessian)
+            upright = _add(upright, _embed(on_board, list(range(start, start + 6)), nz))
+            fall = _add(fall, _embed(f, [start + 3, start + 4, start + 5], nz))
+        return {"settled_upright": upright.scaled(cfg.w_settled_upright),
+                "settled_fall": fall.scaled(cfg.w_settled_fall)}
 
     def _terminal(self, z: np.ndarray) -> dict[str, Term]:
         cfg, q = self.config, z[:ARM_DIM]

@@ -138,7 +138,9 @@ class HoldTail:
     function of the last state alone, V(z_T) = sum_k c(y_k), y_0 = x_T, y_(k+1) = phi(y_k,
     q^Delta); its expansion enters the terminal vx, vxx through the chain of the tail's
     Jacobians, Gauss-Newton as iLQR treats its knots (its box blocks capped like the stage's).
-    ``ilqr.Cost`` protocol over the augmented state z = [x, q^(t-1)] of `AugmentedPhi`."""
+    The tail's last state is the settled one the judge grades: the box-fate terms
+    (`PhysicsObjective.settled_terms`) are priced there once. ``ilqr.Cost`` protocol over the
+    augmented state z = [x, q^(t-1)] of `AugmentedPhi`."""
 
     def __init__(self, objective: PhysicsObjective, dynamics: PhiDynamics, knots: int,
                  max_spectral_radius: float = float("inf"), stride: int | None = None,
@@ -160,8 +162,13 @@ class HoldTail:
         terms.pop("static", None)
         return terms
 
+    def _settled_terms(self, y: np.ndarray, hold: np.ndarray) -> dict:
+        """Weighted box-fate terms (over dz) on the tail's last state y: the settled state."""
+        return self.objective.settled_terms(np.concatenate([y, hold]))
+
     def terms(self, zs: np.ndarray, us: np.ndarray) -> dict[str, float]:
-        """The objective's terms with the tail's added to c_motion, c_upright, c_force."""
+        """The objective's terms with the tail's added to c_motion, c_upright, c_force, and
+        the box-fate terms of its last state (`PhysicsObjective.settled_terms`)."""
         out = self.objective.terms(zs, us)
         ys, hold, holds = self.tail(zs[-1])
         if not np.all(np.isfinite(ys)):
@@ -169,6 +176,8 @@ class HoldTail:
         for y in ys[1:]:
             for name, term in self._knot_terms(y, hold).items():
                 out[name] = out.get(name, 0.0) + term.value
+        for name, term in self._settled_terms(ys[-1], hold).items():
+            out[name] = term.value
         if self.objective.forces is not None:
             for name, value in self.objective.phi_force_terms(ys[:-1], holds).items():
                 out[name] = out.get(name, 0.0) + value
@@ -199,7 +208,10 @@ class HoldTail:
                 exp.vxx[:ndx, :ndx] += G.T @ (d[k][:, None] * G)
             J = A[k] @ J
             P = np.vstack([J, hold_rows])  # d z_k / d x_T, z_k = [y_k, hold]
-            for term in self._knot_terms(ys[k + 1], hold).values():
+            terms = list(self._knot_terms(ys[k + 1], hold).values())
+            if k == self.knots - 1:
+                terms += self._settled_terms(ys[k + 1], hold).values()
+            for term in terms:
                 exp.vx[:ndx] += P.T @ term.gradient
                 exp.vxx[:ndx, :ndx] += P.T @ term.hessian @ P
         return exp

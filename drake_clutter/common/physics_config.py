@@ -1,0 +1,257 @@
+"""The physics planner's sections of the one configuration (`config.Config`): phi as iLQR's
+dynamics (``dynamics``), the planner itself (``physics``, Sec. V, Tables I and II) and phi's
+ensemble (``ensemble``, beyond the paper).
+
+The same rule as in `config`: each field has one comment line above it (what, unit, source:
+a section or table of the paper, or "ours"); the reasons and measurements behind the values
+live in docs/decisions.md under the field's dotted name (``physics.hold_knots``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+
+@dataclass(frozen=True)
+class DynamicsConfig:
+    """phi as iLQR's dynamics and its derivatives (Sec. V)."""
+
+    # finite-difference step of phi's Jacobians, state units (m, rad, m/s); Sec. V
+    fd_step: float = 1e-6
+    # finite-difference scheme ("forward" or "central"), choice; Sec. V
+    fd_scheme: Literal["forward", "central"] = "forward"
+    # margin around the arm's swept volume within which boxes stay dynamic, m; ours
+    prune_margin: float = 0.05
+    # Jacobians A_t, B_t every k-th knot and the last, interpolated between (1: all), count; ours
+    derivative_stride: int = 3
+    # the stride skips only quiet knots (no arm-box contact, no box moving), flag; ours
+    stride_quiet_only: bool = False
+    # a box moves at a knot when |v| + 0.1 m x |w| at its end exceeds this, m/s; ours
+    quiet_speed: float = 0.01
+    # how phi's Jacobians are taken ("fd", "autodiff", "hybrid"), choice; ours
+    derivative_method: Literal["fd", "autodiff", "hybrid"] = "hybrid"
+    # colour groups at a knot from which "hybrid" takes AutoDiffXd, count; ours
+    autodiff_min_groups: int = 20
+    # contact approximation phi's Jacobians are taken with ("rollout", "sap"), choice; ours
+    linearize_approximation: Literal["rollout", "sap"] = "rollout"
+    # parallel derivative workers (0 = serial, in the calling process), count; ours
+    workers: int = 2
+    # SAP sub-steps of phi per knot (0.2 s knots / 10 = 20 ms), count; ours
+    substeps: int = 10
+    # contact geometry of the boxes in phi ("point", "spheres", "hydroelastic"), choice; ours
+    contact_model: Literal["point", "spheres", "hydroelastic"] = "hydroelastic"
+    # radius of the spheres inside the box corners, m; ours
+    corner_sphere_radius: float = 0.004
+    # bodies closer than this at a sub-step's start may interact in that step, m; ours
+    interaction_margin: float = 1e-3
+    # largest state change for which a resting box reuses its Jacobian block, m, rad, m/s; ours
+    known_block_tolerance: float = 1e-7
+    # boxes within this of a kept box are kept too (transitively), m; ours
+    prune_contact_range: float = 0.01
+    # rollouts that check the kept set (frozen boxes reached become dynamic), count; ours
+    prune_rounds: int = 3
+    # arm poses per knot interval for the swept volume, count; ours
+    prune_samples_per_knot: int = 4
+    # time the boxes rest under the still arm before planning, s; ours
+    settle_time: float = 3.0
+    # traced steps remembered for linearize (2 iLQR horizons of line search), count; ours
+    step_cache_size: int = 512
+    # multiple of a box's weight beyond which its shelf force counts in c_force, unitless; ours
+    shelf_force_allowance: float = 1.5
+    # cap on a box's translational speed after every SAP sub-step, m/s; ours
+    max_box_speed: float = 5.0
+    # cap on a box's angular speed after every SAP sub-step, rad/s; ours
+    max_box_spin: float = 30.0
+    # |number| in a box state beyond which a step counts as diverged, m, m/s, rad/s; ours
+    divergence_limit: float = 1.0e6
+
+
+@dataclass(frozen=True)
+class PhysicsConfig:
+    """The physics-based planner (Sec. V, Tables I and II)."""
+
+    # cap on the iLQR iterations, count; Sec. V
+    iterations: int = 30
+    # first iterations run with the sphere gripper proxy, count; Sec. V
+    sphere_iterations: int = 10
+    # the target in the sphere stage's phi ("passes" or "parked"), choice; ours
+    sphere_target: Literal["passes", "parked"] = "parked"
+    # weight of c_static, unitless; Table II
+    w_static: float = 1e3
+    # weight of c_acc, unitless; Table II
+    w_acc: float = 1e-3
+    # multiple of c_acc's Hessian added to the phi stages' model only (0 = off), unitless; ours
+    step_smoothing: float = 0.0
+    # weight of c_static's steep part in the phi stages (0 = off), unitless; ours
+    w_static_deep: float = 0.0
+    # depth the arm may sink into the shelf before c_static's steep part, m; ours
+    static_depth: float = 0.003
+    # configurations per knot interval in the phi stages' c_static (1: the knot), count; ours
+    phi_static_substeps: int = 1
+    # weight of c_force (Table II says 10), unitless; ours
+    w_force: float = 0.01
+    # weight of c_force_excess on phi's forces beyond force_limit (0 = off), unitless; ours
+    w_force_excess: float = 0.0
+    # force at which c_force_excess starts, N; ours
+    force_limit: float = 30.0
+    # weight of c_motion, unitless; Table II
+    w_motion: float = 1e-3
+    # weight of c_upright, unitless; Table II
+    w_upright: float = 1.0
+    # weight of the terminal c_grasp, unitless; Table II
+    w_grasp: float = 1e3
+    # weight of the terminal c_grp_horiz, unitless; Table II
+    w_grp_horiz: float = 1.0
+    # weight of the terminal c_grp_open, unitless; Table II
+    w_grp_open: float = 1.0
+    # weight of c_dynamic in the Sec. V-A pre-processing (as w_static_hull), unitless; ours
+    w_dynamic: float = 80.0
+    # weight of c_match in the Sec. V-B post-processing, unitless; ours
+    w_match: float = 1.0
+    # weight of c_match_vel in the Sec. V-B post-processing, unitless; ours
+    w_match_vel: float = 1.0
+    # knots phi runs past Delta with the arm held (Table II's "all"), count; ours
+    hold_knots: int = 5
+    # weight of c_settled_upright, each box's tilt (rad) at the hold tail's end, unitless; ours
+    w_settled_upright: float = 0.0
+    # weight of c_settled_fall, each box's saturated distance off the board there, unitless; ours
+    w_settled_fall: float = 0.0
+    # distance off the board at which a box's c_settled_fall is half its weight, m; ours
+    settled_fall_scale: float = 0.02
+    # derivative stride of the hold knots' Jacobians (None: dynamics'), count; ours
+    hold_derivative_stride: int | None = None
+    # weight of c_speed, the squared excess over the speed cap, unitless; ours
+    w_speed: float = 1.0e4
+    # c_speed's cap, a fraction of the PR2's joint speed limits, unitless; ours
+    speed_fraction: float = 0.25
+    # smoothing eps of c_grasp = sqrt(d^2 + eps^2) - eps, m; ours
+    grasp_smoothing: float = 0.005
+    # Hessian of the phi stages' c_grasp and c_upright ("gauss_newton", "majorizer"), choice; ours
+    distance_curvature: Literal["gauss_newton", "majorizer"] = "majorizer"
+    # Hessian of c_upright ("tilt": J'J/s of z's horizontal part; "angle": as c_grasp), choice; ours
+    upright_curvature: Literal["tilt", "angle"] = "tilt"
+    # last knots (Delta included) held on the straight approach (0 = off), count; ours
+    approach_knots: int = 0
+    # weight of c_approach = 1/2 offset^2 (m^2; 1 cm costs 5), unitless; ours
+    w_approach: float = 1e5
+    # weight of c_approach_axis = 1 - x_G.d (0.1 rad costs 5), unitless; ours
+    w_approach_axis: float = 1e3
+    # force(q, x) of c_force ("phi": phi's contact forces, or "proxy"), choice; Table I
+    force_source: Literal["phi", "proxy"] = "phi"
+    # stiffness of c_force's penetration-to-force proxy, N/m; ours
+    force_stiffness: float = 1.0e3
+    # configurations per knot interval in c_static_hull / c_dynamic, count; ours
+    hull_substeps: int = 2
+    # iLQR iterations of the Sec. V-A pre-processing, count; ours
+    pre_iterations: int = 10
+    # multiple of w_grasp and w_grp_horiz at the pre-processing's last knot, unitless; ours
+    pre_terminal_weight: float = 100.0
+    # w_vel of the pre-processing's c_vel (None: the baseline's), unitless; Sec. V-A
+    pre_w_vel: float | None = None
+    # the pre-processing keeps the baseline's last knot and gripper openings (bounds), flag; ours
+    pre_keep_pregrasp: bool = True
+    # the post-processing keeps its reference's last knot and gripper openings (bounds), flag; ours
+    post_keep_end: bool = True
+    # the phi stages' last knot opens the gripper at least as wide as the baseline's, flag; ours
+    keep_open: bool = True
+    # the plan is the best in one phi of the baseline, pre- and post-processed paths, flag; ours
+    select_in_phi: bool = True
+    # search before the phi stages ("none", or "sampling": see sampling.py), choice; ours
+    search: Literal["none", "sampling"] = "none"
+    # rounds of the sampling search (cross-entropy refits), count; ours
+    search_rounds: int = 3
+    # paths drawn per round of the sampling search, count; ours
+    search_samples: int = 8
+    # best fraction of a round's scored paths the next round's Gaussian is fitted to, unitless; ours
+    search_elite: float = 0.25
+    # half-range of the search's sideways move of the tool frame (W's y), m; ours
+    search_lateral: float = 0.03
+    # half-range of the search's vertical move of the tool frame (W's z), m; ours
+    search_height: float = 0.02
+    # half-range of the search's turn of the tool frame about W's z, rad; ours
+    search_yaw: float = 0.15
+    # half-range of the search's change of the gripper's opening, m; ours
+    search_opening: float = 0.02
+    # seed of the sampling search's draws, integer; ours
+    search_seed: int = 0
+    # knots before the start path's first arm-box contact where search offsets begin, count; ours
+    search_lead_knots: int = 3
+    # the search scores every sample in one phi per member built once for the search, flag; ours
+    search_shared_phi: bool = True
+    # extra prune margin of that shared phi, for the samples' own sweeps, m; ours
+    search_prune_margin: float = 0.08
+    # times the search rebuilds its phis to free frozen boxes its samples reach, count; ours
+    search_rebuilds: int = 2
+    # iLQR iterations of the Sec. V-B post-processing, count; ours
+    post_iterations: int = 40
+    # largest arm-point travel between swept-cost samples (0: fixed counts alone), m; ours
+    sweep_spacing: float = 0.01
+    # arm geometry variant of the post-processing's c_static, name; Sec. V-B
+    post_variant: str = "evaluation"
+    # configurations per knot interval in the post-processing's c_static, count; ours
+    post_substeps: int = 6
+    # relative cost decrease that stops iLQR (the solver's default), unitless; ours
+    tolerance: float = 1e-6
+    # a step's share of a phi stage's decrease that counts as stalled (0 = off), unitless; ours
+    stall_fraction: float = 0.0
+    # accepted steps in a row under stall_fraction that stop a phi stage, count; ours
+    stall_iterations: int = 2
+    # step sizes tried per backward pass (every stage), count; ours
+    line_search_steps: int = 6
+    # phi stages roll out dynamics.workers step sizes at once, flag; ours
+    parallel_line_search: bool = True
+    # each line search starts at twice the last accepted step, flag; ours
+    adaptive_step: bool = True
+    # phi stages' trust region, a fraction of the per-knot speed-limit step, unitless; ours
+    step_limit_fraction: float = 0.5
+    # failed line searches in one iteration that stop a stage, count; ours
+    max_failed_searches: int = 1
+    # cap on the spectral radius of phi's box-to-box Jacobian per knot, unitless; ours
+    max_spectral_radius: float = 1.0
+    # rows the cap scales ("box": each unstable box's own first; "block": every box's), choice; ours
+    spectral_cap_scope: Literal["box", "block"] = "box"
+    # phi stages retry a failed line search open loop (K = 0), flag; ours
+    open_loop_fallback: bool = False
+    # phi stages' forward passes feed back K (x - x_bar), flag; ours
+    feedback: bool = True
+    # state the phi stages feed back ("all", or "arm": not the boxes' chaotic part), choice; ours
+    feedback_state: Literal["all", "arm"] = "all"
+    # smallest control move that keeps a phi stage going (0 = off), rad (m: opening); ours
+    min_step: float = 1e-3
+    # every stage's backward pass solves each knot's box-constrained QP (Tassa 2014), flag; ours
+    box_qp: bool = True
+    # the phi stages' trust region bounds the backward pass's QP, not only clips, flag; ours
+    trust_bounds: bool = True
+    # the phi stages' trust region adapts to actual / predicted decrease, flag; ours
+    trust_adapt: bool = True
+    # least actual / predicted decrease of an accepted phi-stage step (0: any), unitless; ours
+    accept_ratio: float = 0.0
+    # the phi stages' regulariser is scaled per control by its trust-region step, flag; ours
+    scaled_regulariser: bool = True
+
+
+@dataclass(frozen=True)
+class EnsembleConfig:
+    """phi's ensemble: a plan scored over K perturbed rollouts (beyond the paper): all ours."""
+
+    # members of phi's ensemble, the nominal scene first (1: phi alone), count; ours
+    members: int = 1
+    # seed of the members' worlds (member k draws from [seed, k]), integer; ours
+    seed: int = 1000
+    # half-range of each box's initial shift along x and y (uniform), m; ours
+    position: float = 0.003
+    # half-range of each box's initial yaw change (uniform; 3 deg), rad; ours
+    yaw: float = 0.05
+    # half-range of each box's relative mass change (uniform), unitless; ours
+    mass: float = 0.2
+    # half-range of each box's relative friction change (uniform), unitless; ours
+    friction: float = 0.2
+    # member 1 pairs friction as Bullet does (world.friction_as_bullet), flag; ours
+    bullet_friction_member: bool = True
+    # the score over members ("mean", "mean_std": mean + weight std, "cvar"), choice; ours
+    risk: Literal["mean", "mean_std", "cvar"] = "mean"
+    # lambda of the "mean_std" score, unitless; ours
+    risk_weight: float = 1.0
+    # worst fraction of the members the "cvar" score averages, unitless; ours
+    cvar_fraction: float = 0.5

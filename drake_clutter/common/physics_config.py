@@ -194,7 +194,7 @@ class PhysicsConfig:
     # relative cost decrease that stops iLQR (the solver's default), unitless; ours
     tolerance: float = 1e-6
     # a step's share of a phi stage's decrease that counts as stalled (0 = off), unitless; ours
-    stall_fraction: float = 0.0
+    stall_fraction: float = 0.05
     # accepted steps in a row under stall_fraction that stop a phi stage, count; ours
     stall_iterations: int = 2
     # step sizes tried per backward pass (every stage), count; ours

@@ -120,15 +120,15 @@ def member_rollouts(scene: Scene, paths: dict[str, np.ndarray], config: Config, 
                     ) -> dict[str, MemberRollout]:
     """Each knot path (T + 1, 8) rolled out in member ``member``'s phi, pruned for all
     ``paths`` together, priced by the full stage's objective per Table I term (capsule arm,
-    hold tail); `FAILED` for a path phi cannot roll out, and for every path where phi cannot
-    even settle the member's scene."""
+    hold tail); `FAILED` for a path phi cannot roll out (the others are still priced), and for
+    every path where phi cannot even settle the member's scene."""
     world, cfg = member_world(scene, config, member)
     first, *others = paths.values()
     try:
         with stage_problem(world, first, cfg, "capsules", pool, knot_time, approach,
                            also=tuple(others)) as problem:
-            return {name: _rollout(problem, q) for name, q in paths.items()}
-    except (RuntimeError, ValueError):  # Drake's solver errors while settling or stepping
+            return {name: _rollout_or_failed(problem, q) for name, q in paths.items()}
+    except (RuntimeError, ValueError):  # Drake's solver errors while settling
         return {name: FAILED for name in paths}
 
 

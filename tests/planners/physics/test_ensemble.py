@@ -89,6 +89,26 @@ def test_member_zero_is_phi_and_members_meet_the_same_worlds(scene, baseline_pat
     assert info["members"]["baseline"] == pytest.approx(totals["baseline"])
 
 
+def test_a_path_phi_cannot_roll_out_fails_alone(scene, baseline_path, monkeypatch):
+    """Drake raising on one path's steps makes that path FAILED in the member; the other
+    paths of the same call are still priced."""
+    from drake_clutter.planners.physics import ensemble
+
+    real = ensemble._rollout
+
+    def raising(problem, q):
+        if q[-1, 0] != baseline_path[-1, 0]:
+            raise RuntimeError("SAP failed to converge")
+        return real(problem, q)
+
+    monkeypatch.setattr(ensemble, "_rollout", raising)
+    moved = baseline_path.copy()
+    moved[-1, 0] += 1e-3
+    out = member_rollouts(scene, {"baseline": baseline_path, "moved": moved}, Config(), 0)
+    assert out["moved"] == ensemble.FAILED
+    assert out["baseline"].terms is not None and np.isfinite(sum(out["baseline"].terms.values()))
+
+
 def test_scores_in_shared_members_do_not_depend_on_what_was_scored_before(scene, baseline_path):
     """One phi per member for many paths (the search's): phi's step cache serves the steps
     paths share, so a path scores the same after others as in members built for it alone,

@@ -217,6 +217,10 @@ class PhysicsConfig:
     feedback: bool = True
     # state the phi stages feed back ("all", or "arm": not the boxes' chaotic part), choice; ours
     feedback_state: Literal["all", "arm"] = "all"
+    # controls of the phi stages: every knot ("knots", Sec. V) or B-spline points, choice; ours
+    controls: Literal["knots", "spline"] = "knots"
+    # B-spline control points of "spline" controls (the baseline's, Sec. IV), count; ours
+    control_points: int = 10
     # smallest control move that keeps a phi stage going (0 = off), rad (m: opening); ours
     min_step: float = 1e-3
     # every stage's backward pass solves each knot's box-constrained QP (Tassa 2014), flag; ours

@@ -193,7 +193,8 @@ def rollout(dynamics: Dynamics, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
     return xs
 
 
-def _bounds(settings: ILQRSettings, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+def per_knot_bounds(settings: ILQRSettings,
+                    shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
     """The bounds as (T, nu) arrays (a (nu,) bound repeated at every knot)."""
     lo = np.full(shape, -np.inf) if settings.u_min is None else np.asarray(settings.u_min, float)
     hi = np.full(shape, np.inf) if settings.u_max is None else np.asarray(settings.u_max, float)
@@ -255,7 +256,7 @@ def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
         d1 += kt @ qu
         d2 += 0.5 * kt @ quu @ kt
         vx = qx + Kt.T @ quu @ kt + Kt.T @ qu + qux.T @ kt
-        vxx = _psd(qxx + Kt.T @ quu @ Kt + Kt.T @ qux + qux.T @ Kt)
+        vxx = nearest_psd(qxx + Kt.T @ quu @ Kt + Kt.T @ qux + qux.T @ Kt)
     return k, K, (d1, d2)
 
 
@@ -309,7 +310,7 @@ def _held(x: np.ndarray, grad: np.ndarray, lower: np.ndarray, upper: np.ndarray)
     return ((x <= lower) & (grad > 0)) | ((x >= upper) & (grad < 0)) | (lower >= upper)
 
 
-def _psd(M: np.ndarray) -> np.ndarray:
+def nearest_psd(M: np.ndarray) -> np.ndarray:
     """The nearest symmetric positive semi-definite matrix (negative eigenvalues set to 0).
 
     With positive semi-definite cost Hessians V_xx is too in exact arithmetic without
@@ -328,7 +329,8 @@ def _chol_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return np.linalg.solve(chol.T, y)
 
 
-def _subtract(x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
+def subtract(x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
+    """x_a - x_b: the state difference of plain vector states."""
     return x_a - x_b
 
 
@@ -337,7 +339,7 @@ def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, differe
     """New (xs, us) from the policy u = clamp(u_bar + alpha k + K (x (-) x_bar)); ``difference``
     is the state difference (default: plain subtraction); ``limit`` (nu,) bounds each control's
     change |u - u_bar| (None: unbounded); ``lo``/``hi`` (nu,) or (T, nu)."""
-    difference = difference or _subtract
+    difference = difference or subtract
     lo, hi = np.broadcast_to(lo, us.shape), np.broadcast_to(hi, us.shape)
     new_xs = np.empty_like(xs)
     new_us = np.empty_like(us)
@@ -365,7 +367,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     ``difference`` as in the module docstring (None: plain vector states)."""
     settings = settings or ILQRSettings()
     us = np.array(us_init, dtype=float)
-    lo, hi = _bounds(settings, us.shape)
+    lo, hi = per_knot_bounds(settings, us.shape)
     base = None if settings.step_limit is None else np.asarray(settings.step_limit, float)
     radius = 1.0  # the trust region's, a fraction of step_limit (``trust_adapt``)
     reg_scale = None if settings.reg_scale is None else np.asarray(settings.reg_scale, float)
@@ -424,7 +426,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
             timings["forward"] += time.perf_counter() - tic
             if step is not None:
                 accepted = True
-                radius = _adapted_radius(radius, entry, limit, settings)
+                radius = adapted_radius(radius, entry, limit, settings)
                 break
             if settings.trust_adapt and base is not None and radius > TRUST_MIN:
                 # a smaller region before a larger mu; not counted as a failed search
@@ -453,7 +455,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
         if entry["step"] < settings.min_step:
             stop_reason = StopReason.SMALL_STEP
             break
-        if _stalled(history, settings):
+        if stalled(history, settings):
             stop_reason = StopReason.STALLED
             break
     return ILQRResult(xs=xs, us=us, K=K, k=k, cost=total, cost_history=history,
@@ -461,7 +463,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                       timings=timings, log=log)
 
 
-def _stalled(history: list[float], settings: ILQRSettings) -> bool:
+def stalled(history: list[float], settings: ILQRSettings) -> bool:
     """True when the last ``stall_iterations`` accepted steps each lowered the objective by
     less than ``stall_fraction`` of the decrease from history[0] to their own value."""
     n = settings.stall_iterations
@@ -475,7 +477,7 @@ def _stalled(history: list[float], settings: ILQRSettings) -> bool:
 TRUST_MIN = 1.0 / 64.0  # the adaptive trust region's smallest radius (of step_limit)
 
 
-def _adapted_radius(radius: float, entry: dict, limit, settings: ILQRSettings) -> float:
+def adapted_radius(radius: float, entry: dict, limit, settings: ILQRSettings) -> float:
     """The trust region's next radius after an accepted step (``trust_adapt``): doubled (up
     to 1) when the model was good (actual / predicted > 0.75) and the step reached the
     region's edge, quartered (down to TRUST_MIN) when it was poor (< 0.25)."""
@@ -521,7 +523,7 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
         alphas = [alpha0 * 0.5 ** i for i in range(settings.line_search_steps)]
         for start in range(0, len(alphas), batch):
             chunk = alphas[start:start + batch]
-            passes = _forward_passes(dynamics, xs, us, k, gain, chunk, lo, hi, difference,
+            passes = forward_passes_of(dynamics, xs, us, k, gain, chunk, lo, hi, difference,
                                      limit)
             entry["passes"] = entry.get("passes", 0) + len(chunk)
             for alpha, (new_xs, new_us) in zip(chunk, passes, strict=True):
@@ -542,7 +544,7 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
     return None
 
 
-def _forward_passes(dynamics, xs, us, k, K, alphas, lo, hi, difference, limit) -> list:
+def forward_passes_of(dynamics, xs, us, k, K, alphas, lo, hi, difference, limit) -> list:
     """(xs, us) of the forward passes at ``alphas``: at once through the dynamics'
     ``forward_passes`` when it has more than one to run, else one after another."""
     if len(alphas) > 1 and hasattr(dynamics, "forward_passes"):

@@ -13,49 +13,13 @@ from drake_clutter.solvers.ilqr import (
     solve,
     zero_nonfinite,
 )
-
-
-class LinearDynamics:
-    def __init__(self, A, B):
-        self.A, self.B = A, B
-
-    def step(self, t, x, u):
-        return self.A @ x + self.B @ u
-
-    def linearize(self, xs, us):
-        T = len(us)
-        return np.repeat(self.A[None], T, 0), np.repeat(self.B[None], T, 0)
-
-
-class QuadraticCost:
-    """sum_t 1/2 x'Qx + 1/2 u'Ru + 1/2 x_T' Qf x_T."""
-
-    def __init__(self, Q, R, Qf):
-        self.Q, self.R, self.Qf = Q, R, Qf
-
-    def terms(self, xs, us):
-        state = 0.5 * np.einsum("ti,ij,tj->", xs[:-1], self.Q, xs[:-1])
-        control = 0.5 * np.einsum("ti,ij,tj->", us, self.R, us)
-        return {"state": state, "control": control, "terminal": 0.5 * xs[-1] @ self.Qf @ xs[-1]}
-
-    def quadratize(self, xs, us):
-        T = len(us)
-        return Expansion(lx=xs[:-1] @ self.Q, lu=us @ self.R,
-                         lxx=np.repeat(self.Q[None], T, 0), luu=np.repeat(self.R[None], T, 0),
-                         lux=np.zeros((T, us.shape[1], xs.shape[1])), vx=self.Qf @ xs[-1],
-                         vxx=self.Qf)
-
-
-def _lqr_problem(seed=0, T=25):
-    rng = np.random.default_rng(seed)
-    nx, nu = 4, 2
-    A = np.eye(nx) + 0.1 * rng.standard_normal((nx, nx))
-    B = 0.1 * rng.standard_normal((nx, nu))
-    Q = np.diag(rng.uniform(0.5, 2.0, nx))
-    R = np.diag(rng.uniform(0.1, 1.0, nu))
-    Qf = 10 * np.eye(nx)
-    x0 = rng.standard_normal(nx)
-    return A, B, Q, R, Qf, x0, T
+from drake_clutter.testing.control_problems import (
+    LinearDynamics,
+    Pendulum,
+    QuadraticCost,
+    SwingUpCost,
+    lqr_problem,
+)
 
 
 def _batch_lqr(A, B, Q, R, Qf, x0, T):
@@ -76,7 +40,7 @@ def _batch_lqr(A, B, Q, R, Qf, x0, T):
 
 
 def test_lqr_is_solved_in_one_iteration_and_matches_batch_solution():
-    A, B, Q, R, Qf, x0, T = _lqr_problem()
+    A, B, Q, R, Qf, x0, T = lqr_problem()
     settings = ILQRSettings(reg_init=0.0, reg_min=0.0)
     result = solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)), settings)
     expected = _batch_lqr(A, B, Q, R, Qf, x0, T)
@@ -93,41 +57,6 @@ def test_lqr_is_solved_in_one_iteration_and_matches_batch_solution():
         us_fb.append(u)
         x = A @ x + B @ u
     np.testing.assert_allclose(np.array(us_fb), _batch_lqr(A, B, Q, R, Qf, x0b, T), atol=1e-8)
-
-
-class Pendulum:
-    """Damped pendulum, x = (angle, rate), u = torque; explicit Euler, dt = 0.05."""
-
-    dt = 0.05
-
-    def step(self, t, x, u):
-        th, w = x
-        return np.array([th + self.dt * w, w + self.dt * (-9.81 * np.sin(th) - 0.1 * w + u[0])])
-
-    def linearize(self, xs, us):
-        T = len(us)
-        A = np.zeros((T, 2, 2))
-        A[:, 0, 0] = 1.0
-        A[:, 0, 1] = self.dt
-        A[:, 1, 0] = -self.dt * 9.81 * np.cos(xs[:-1, 0])
-        A[:, 1, 1] = 1 - 0.1 * self.dt
-        B = np.zeros((T, 2, 1))
-        B[:, 1, 0] = self.dt
-        return A, B
-
-
-class SwingUpCost:
-    goal = np.array([np.pi, 0.0])
-
-    def terms(self, xs, us):
-        return {"effort": 0.5 * 0.01 * float(np.sum(us ** 2)),
-                "terminal": 0.5 * 100.0 * float(np.sum((xs[-1] - self.goal) ** 2))}
-
-    def quadratize(self, xs, us):
-        T = len(us)
-        return Expansion(lx=np.zeros((T, 2)), lu=0.01 * us, lxx=np.zeros((T, 2, 2)),
-                         luu=np.full((T, 1, 1), 0.01), lux=np.zeros((T, 1, 2)),
-                         vx=100.0 * (xs[-1] - self.goal), vxx=100.0 * np.eye(2))
 
 
 def test_nonlinear_cost_never_increases_and_bounds_hold():
@@ -251,7 +180,7 @@ def test_manifold_states_use_the_difference_function():
 def test_log_predicts_the_exact_decrease_on_lqr():
     """On an LQR problem the quadratic model is exact: the logged predicted decrease of the
     full step equals the actual one."""
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=1)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=1)
     result = solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)),
                    ILQRSettings(reg_init=0.0, reg_min=0.0))
     first = result.log[0]
@@ -265,7 +194,7 @@ def test_log_predicts_the_decrease_at_the_accepted_step_size():
     """When the full step fails (the dynamics refuse controls beyond 3/4 of the optimum's
     largest, returning NaN) the line search accepts alpha 1/2, and the log's "predicted" is the
     model's decrease at that alpha, equal to the actual one on an exact quadratic model."""
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=1)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=1)
     largest = np.abs(_batch_lqr(A, B, Q, R, Qf, x0, T)).max()
 
     class Refusing(LinearDynamics):
@@ -283,7 +212,7 @@ def test_log_predicts_the_decrease_at_the_accepted_step_size():
 
 
 def test_trust_region_bounds_every_step_and_still_reaches_the_optimum():
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=2)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=2)
     x0 = 5.0 * x0  # far from the optimum, so that the first steps are clipped
     limit = 0.5
     settings = ILQRSettings(max_iterations=300, tolerance=1e-14, reg_init=0.0, reg_min=0.0,
@@ -317,7 +246,7 @@ class WrongA(LinearDynamics):
 
 
 def test_open_loop_fallback_makes_progress_with_a_wrong_state_jacobian():
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=3)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=3)
     rng = np.random.default_rng(3)
     dyn = WrongA(A, B, 1.5 * rng.standard_normal(A.shape))
     cost = QuadraticCost(Q, R, Qf)
@@ -336,7 +265,7 @@ def test_open_loop_fallback_makes_progress_with_a_wrong_state_jacobian():
 
 
 def test_without_feedback_every_step_is_open_loop_and_the_cost_still_falls():
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=3)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=3)
     cost = QuadraticCost(Q, R, Qf)
     result = solve(LinearDynamics(A, B), cost, x0, np.zeros((T, 2)),
                    ILQRSettings(max_iterations=5, feedback=False))
@@ -362,7 +291,7 @@ def test_bounded_controls_reach_the_constrained_optimum_with_nonnegative_predict
     """A one-step problem with box bounds: the constrained optimum from L-BFGS-B."""
     from scipy.optimize import minimize
 
-    A, B, Q, R, Qf, x0, _ = _lqr_problem(seed=4, T=1)
+    A, B, Q, R, Qf, x0, _ = lqr_problem(seed=4, T=1)
     B = np.eye(4)[:, :2] + 0.3 * B  # well-conditioned inputs
     dyn, cost = LinearDynamics(A, B), QuadraticCost(Q, R, Qf)
     free = _batch_lqr(A, B, Q, R, Qf, x0, 1)[0]
@@ -384,7 +313,7 @@ def test_bounded_controls_reach_the_constrained_optimum_with_nonnegative_predict
 def test_per_knot_bounds_pin_controls_and_the_rest_solve_the_reduced_problem():
     """Bounds (T, nu) that meet pin those controls; the free ones are the equality-constrained
     optimum (the batch normal equations with the pinned columns moved to the right side)."""
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=2, T=6)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=2, T=6)
     nu = B.shape[1]
     lo, hi = np.full((T, nu), -np.inf), np.full((T, nu), np.inf)
     pinned = np.zeros((T, nu), dtype=bool)
@@ -413,7 +342,7 @@ def test_per_knot_bounds_pin_controls_and_the_rest_solve_the_reduced_problem():
 
 
 def test_per_knot_bounds_of_the_wrong_shape_are_rejected():
-    A, B, Q, R, Qf, x0, T = _lqr_problem(T=4)
+    A, B, Q, R, Qf, x0, T = lqr_problem(T=4)
     with pytest.raises(ValueError):
         solve(LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)),
               ILQRSettings(u_min=np.zeros((T + 1, 2))))
@@ -429,7 +358,7 @@ class Unimprovable(LinearDynamics):
 
 
 def test_failed_line_searches_stop_the_solver():
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=5)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=5)
     settings = ILQRSettings(max_iterations=10, max_failed_searches=2, line_search_steps=3)
     result = solve(Unimprovable(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)), settings)
     assert result.stop_reason == "line_search_failed" and result.iterations == 0
@@ -516,7 +445,7 @@ class NaNJacobian(LinearDynamics):
 
 
 def test_a_nan_derivative_entry_is_zeroed_counted_and_the_solve_still_descends():
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=4)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=4)
     cost = QuadraticCost(Q, R, Qf)
     result = solve(NaNJacobian(A, B), cost, x0, np.zeros((T, 2)),
                    ILQRSettings(max_iterations=4))
@@ -555,7 +484,7 @@ def test_trust_bounds_make_the_prediction_describe_the_step():
     predicted decrease is of a step never taken (the actual is a fraction of it); as bounds of
     the backward pass's box QP, the first step's prediction is exact and no control moves by
     more than the region."""
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=2)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=2)
     x0 = 5.0 * x0
     problem = (LinearDynamics(A, B), QuadraticCost(Q, R, Qf), x0, np.zeros((T, 2)))
     clip = solve(*problem, ILQRSettings(max_iterations=1, step_limit=(0.5, 0.5)))
@@ -570,7 +499,7 @@ def test_trust_bounds_make_the_prediction_describe_the_step():
 def test_the_trust_region_shrinks_on_a_poor_model_and_accept_ratio_refuses_small_gains():
     """With a wrong state Jacobian the model overpromises: the adaptive region shrinks below
     its start; a step whose decrease is under accept_ratio of the prediction is refused."""
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=3)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=3)
     wrong = WrongA(A, B, 0.5 * np.random.default_rng(0).normal(size=A.shape))
     settings = ILQRSettings(max_iterations=15, step_limit=(1.0, 1.0), box_qp=True,
                             trust_bounds=True, trust_adapt=True)
@@ -588,7 +517,7 @@ def test_the_trust_region_shrinks_on_a_poor_model_and_accept_ratio_refuses_small
 def test_a_feedback_mask_feeds_back_only_its_coordinates():
     """With a mask, the forward pass's gains are K with the unmasked columns zero: masking
     every coordinate is the open-loop solve, masking none the closed-loop one."""
-    A, B, Q, R, Qf, x0, T = _lqr_problem(seed=5)
+    A, B, Q, R, Qf, x0, T = lqr_problem(seed=5)
     wrong = WrongA(A, B, 0.3 * np.random.default_rng(1).normal(size=A.shape))
     cost = QuadraticCost(Q, R, Qf)
     run = {}

@@ -66,7 +66,7 @@ from drake_clutter.common.config import Config, ConfigError
 from drake_clutter.phi.derivatives import check_derivative_method
 from drake_clutter.phi.dynamics import ARM_DIM
 from drake_clutter.phi.workers import WorkerPool
-from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.baseline import plan_baseline, spline_basis
 from drake_clutter.planners.physics.ensemble import check_ensemble, ensemble_scores
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
@@ -74,7 +74,7 @@ from drake_clutter.planners.physics.sampling import check_search, sampling_searc
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
 from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene
-from drake_clutter.solvers import ilqr
+from drake_clutter.solvers import ilqr, spline
 from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
 
 ROLL_BOUND = 4 * np.pi  # rad, bound of the continuous rolls' controls; ours: two turns either
@@ -225,6 +225,11 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
                        also=tuple(alternatives)) as problem:
         augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
         starts = [q, *alternatives]
+        basis = None
+        if config.physics.controls == "spline":
+            basis = spline_basis(len(q), config.physics.control_points,
+                                 config.baseline.opt_spline_order)
+            starts = [spline_path(basis, path) for path in starts]
         values = [_path_objective(augmented, objective, z0, path) for path in starts]
         if not np.any(np.isfinite(values)):
             raise PhiFailure("phi failed on the initial rollout")
@@ -233,14 +238,25 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
         settings = solver_settings(config, iterations, knot_time, bounds)
         if config.physics.feedback_state == "arm":
             settings = replace(settings, feedback_mask=arm_feedback_mask(augmented))
-        result = ilqr.solve(augmented, objective, z0, q[1:], settings,
-                            difference=augmented.difference)
+        if basis is None:
+            result = ilqr.solve(augmented, objective, z0, q[1:], settings,
+                                difference=augmented.difference)
+        else:
+            result = spline.solve_spline(augmented, objective, z0, q[1:], basis, q[0],
+                                         settings, difference=augmented.difference)
         info = {"kept_boxes": list(augmented.layout.box_names),
                 "pruning": problem.report.summary(),
                 "phi_failures": problem.dynamics.phi.failures,
                 "autodiff_fallbacks": problem.dynamics.autodiff_fallbacks,
                 "start_objectives": [float(v) for v in values]}
     return np.vstack([q[:1], result.us]), result, info
+
+
+def spline_path(basis: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The knot path (T + 1, 8) nearest ``q`` (least squares) among the B-splines of ``basis``
+    (T + 1, P + 1) that start at q[0]; a path that already is one comes back unchanged."""
+    controls = spline.SplineControls(basis, q[0])
+    return np.vstack([q[:1], controls.controls(controls.fit(q[1:]))])
 
 
 def path_terms(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.ndarray,
@@ -460,6 +476,10 @@ def check_config(config: Config) -> None:
               ("step_limit_fraction", cfg.step_limit_fraction > 0, "positive"),
               ("accept_ratio", 0 <= cfg.accept_ratio < 1, "in [0, 1)"),
               ("max_spectral_radius", cfg.max_spectral_radius > 0, "positive"),
+              ("control_points",
+               config.baseline.opt_spline_order <= cfg.control_points <= config.baseline.num_knots,
+               f"between baseline.opt_spline_order ({config.baseline.opt_spline_order}) and "
+               f"baseline.num_knots ({config.baseline.num_knots})"),
               ("post_variant", cfg.post_variant in pr2.VARIANTS,
                f"one of {', '.join(pr2.VARIANTS)}"), *check_search(config))
     for name, ok, what in checks:

@@ -797,6 +797,10 @@ def test_bad_physics_config_is_a_config_error(scene):
         plan_physics(scene, load_config(None, ["physics.settled_fall_scale=0"]), [])
     with pytest.raises(ConfigError, match="physics.accept_ratio"):
         plan_physics(scene, load_config(None, ["physics.accept_ratio=1"]), [])
+    with pytest.raises(ConfigError, match="physics.control_points"):
+        plan_physics(scene, load_config(None, ["physics.control_points=3"]), [])
+    with pytest.raises(ConfigError, match="physics.controls"):
+        load_config(None, ["physics.controls=bezier"])
     with pytest.raises(ConfigError, match="dynamics.quiet_speed"):
         plan_physics(scene, load_config(None, ["dynamics.quiet_speed=-1"]), [])
     with pytest.raises(ConfigError, match="dynamics.derivative_method"):
@@ -1026,3 +1030,29 @@ def test_parallel_line_search_gives_the_serial_phi_stage(scene, fig5_candidate):
         [(e["alpha"], e["tries"]) for e in serial.log]
     assert all(e["passes"] == e["tries"] for e in serial.log)
     assert sum(e["passes"] for e in parallel.log) > sum(e["tries"] for e in parallel.log)
+
+
+def test_spline_controls_keep_a_phi_stage_on_the_baselines_spline(scene, fig5_candidate):
+    """With ``physics.controls=spline`` a phi stage optimises the B-spline's control points:
+    the baseline's path (a spline of that basis) starts it unchanged, the objective never
+    rises, and the result is still a spline from the same start within the joint limits."""
+    from drake_clutter.common.config import load_config
+    from drake_clutter.planners.baseline import spline_basis
+    from drake_clutter.planners.physics.pipeline import control_bounds, physics_stage, spline_path
+
+    config = load_config(None, ["dynamics.workers=0", "dynamics.derivative_stride=4",
+                                "physics.controls=spline"])
+    q0 = np.asarray(fig5_candidate.trajectory.q, float)
+    basis = spline_basis(len(q0), config.physics.control_points,
+                         config.baseline.opt_spline_order)
+    np.testing.assert_allclose(spline_path(basis, q0), q0, atol=1e-9)
+    q, result, info = physics_stage(scene, q0, config, "capsules", 2)
+    assert result.iterations >= 1 and info["phi_failures"] == 0
+    # its own fit of the start moves a knot by ~1e-12 rad, which phi's chaos amplifies
+    assert result.cost_history[0] == pytest.approx(info["start_objectives"][0], rel=1e-6)
+    assert np.all(np.diff(result.cost_history) <= 0)
+    assert np.abs(q - q0).max() > 1e-6, "the stage moved the path"
+    np.testing.assert_array_equal(q[0], q0[0])
+    np.testing.assert_allclose(spline_path(basis, q), q, atol=1e-9)
+    lo, hi = control_bounds()
+    assert np.all(q[1:] >= np.array(lo) - 1e-12) and np.all(q[1:] <= np.array(hi) + 1e-12)

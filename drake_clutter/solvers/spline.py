@@ -72,7 +72,8 @@ class SplineControls:
 
     def point_bounds(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(P, nu) bounds of the control points under which every knot keeps its (T, nu)
-        bounds: each point within the tightest bounds of the knots it touches."""
+        bounds: each point within the tightest bounds of the knots it touches (ValueError
+        where those bounds do not meet, e.g. neighbouring knots pinned to different values)."""
         P, nu = self.M.shape[1], lo.shape[1]
         lo_c, hi_c = np.full((P, nu), -np.inf), np.full((P, nu), np.inf)
         for j in range(P):
@@ -80,7 +81,9 @@ class SplineControls:
             if touched.any():
                 lo_c[j] = lo[touched].max(axis=0)
                 hi_c[j] = hi[touched].min(axis=0)
-        return lo_c, np.maximum(hi_c, lo_c)
+        if np.any(lo_c > hi_c):
+            raise ValueError("the per-knot bounds leave no control point a feasible value")
+        return lo_c, hi_c
 
 
 def sensitivities(A: np.ndarray, B: np.ndarray, M: np.ndarray) -> np.ndarray:

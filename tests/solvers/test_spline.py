@@ -119,3 +119,11 @@ def test_a_basis_for_another_horizon_is_rejected():
     with pytest.raises(ValueError, match="knots"):
         solve_spline(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((20, 1)),
                      spline_basis(31, 10, 4), np.zeros(1))
+
+
+def test_per_knot_pins_no_spline_can_meet_are_rejected():
+    lo, hi = np.full((20, 1), -1.0), np.full((20, 1), 1.0)
+    lo[-2], hi[-2], lo[-1], hi[-1] = 0.5, 0.5, -0.5, -0.5  # the last point sees both knots
+    with pytest.raises(ValueError, match="feasible"):
+        solve_spline(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((20, 1)),
+                     spline_basis(21, 8, 4), np.zeros(1), ILQRSettings(u_min=lo, u_max=hi))

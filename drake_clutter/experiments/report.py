@@ -391,6 +391,41 @@ def markdown_stages(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def largest_kink(q: np.ndarray) -> float:
+    """The largest knot-to-knot second difference |q_{t+1} - 2 q_t + q_{t-1}| of an arm
+    joint (the first 7 columns of the knot path ``q``, rad); 0 for fewer than 3 knots."""
+    arm = np.asarray(q, float)[:, :7]
+    if len(arm) < 3:
+        return 0.0
+    return float(np.abs(arm[2:] - 2.0 * arm[1:-1] + arm[:-2]).max())
+
+
+def smoothness(rows: list[dict]) -> list[dict]:
+    """Per configuration and planner: the plans' `largest_kink` (rad), median, 90th
+    percentile and maximum over the plans stored."""
+    out = []
+    for (config_name, planner), group in groups(rows).items():
+        kinks = [largest_kink(r["plan"]["trajectory"]["q"]) for r in group
+                 if (r.get("plan") or {}).get("trajectory")]
+        if not kinks:
+            continue
+        median, p90 = np.percentile(kinks, [50, 90])
+        out.append({"configuration": config_name, "planner": planner, "plans": len(kinks),
+                    "kink_median": float(median), "kink_p90": float(p90),
+                    "kink_max": float(max(kinks))})
+    return out
+
+
+def markdown_smoothness(table: list[dict]) -> str:
+    """`smoothness` as Markdown."""
+    lines = ["| configuration | planner | plans | largest kink per plan (rad): median | 90th "
+             "percentile | max |", "|---|---|---:|---:|---:|---:|"]
+    lines += [f"| {r['configuration']} | {r['planner']} | {r['plans']} | "
+              f"{r['kink_median']:.3f} | {r['kink_p90']:.3f} | {r['kink_max']:.3f} |"
+              for r in table]
+    return "\n".join(lines)
+
+
 def selection_score(row: dict, baseline: BaselineConfig | None = None) -> float | None:
     """The score the row's planner ranks its candidates by without the judge
     (`planners.selection.selection_score`, lower is better); None for a row without a plan."""
@@ -480,9 +515,9 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     """Writes report.md, table3.{md,csv}, table4.{md,csv}, fig9.csv, fig9a/b/c.png, fig9.png
     (the three panels together), paired.csv (physics against the baseline per
     initialization), configurations.csv (every other physics configuration against the
-    ``reference`` one per initialization; default the store's first, when it has two or more)
-    and stages.csv (`stage_statistics`) into ``out_dir`` (created); returns the paths by
-    name. ``config``: the paired comparison's bootstrap settings."""
+    ``reference`` one per initialization; default the store's first, when it has two or more),
+    stages.csv (`stage_statistics`) and smoothness.csv (`smoothness`) into ``out_dir``
+    (created); returns the paths by name. ``config``: the paired comparison's bootstrap settings."""
     config = config or ReportConfig()
     physics_configs = physics_configurations(rows)
     if reference is None and len(physics_configs) > 1:
@@ -494,6 +529,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
              "table3.csv": out / "table3.csv", "table4.csv": out / "table4.csv",
              "fig9.csv": out / "fig9.csv", "paired.csv": out / "paired.csv",
              "stages.csv": out / "stages.csv", "selected.csv": out / "selected.csv",
+             "smoothness.csv": out / "smoothness.csv",
              "report.md": out / "report.md"}
     md3, md4 = markdown_table_iii(t3), markdown_table_iv(t4)
     paths["table3.md"].write_text(md3 + "\n", encoding="utf-8")
@@ -517,6 +553,8 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     _write_csv(paths["stages.csv"], stages)
     selected = selected_plan_success(rows, config)
     _write_csv(paths["selected.csv"], selected)
+    smooth = smoothness(rows)
+    _write_csv(paths["smoothness.csv"], smooth)
     paths["fig9a.png"] = plot_success(f9, "bookshelf", out / "fig9a.png")
     paths["fig9b.png"] = plot_success(f9, "fridge", out / "fig9b.png")
     paths["fig9c.png"] = plot_time(f9, out / "fig9c.png")
@@ -552,7 +590,12 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "steps the actual decrease of phi's objective over the quadratic model's at the "
             "accepted step size (1: the model was right; the trust region clips steps after the "
             "model). The plan is the best in phi of the post-processed, pre-processed and "
-            "baseline paths. Per stage: stages.csv.", "", markdown_stages(stages), ""]
+            "baseline paths. Per stage: stages.csv.", "", markdown_stages(stages), "",
+            "## Smoothness of the plans", "",
+            "Per plan the largest change of an arm joint's step from one knot to the next "
+            "(second difference, rad): the baseline's plans are B-splines, the physics "
+            "planner's knots move one by one unless `physics.controls` is `spline`. Per "
+            "configuration: smoothness.csv.", "", markdown_smoothness(smooth), ""]
     paths["report.md"].write_text("\n".join(text), encoding="utf-8")
     return paths
 

@@ -18,10 +18,12 @@ from drake_clutter.experiments.paired import (
 )
 from drake_clutter.experiments.report import (
     PAPER_TABLE_III,
+    largest_kink,
     markdown_stages,
     selected_plan_success,
     selected_rows,
     selection_score,
+    smoothness,
     stage_statistics,
     table_iii,
     table_iv,
@@ -332,3 +334,26 @@ def test_a_store_with_one_physics_configuration_has_no_configuration_table(tmp_p
     assert main(["report", str(tmp_path / "r.db"), "--out", str(out)]) == 0
     assert "against each other" not in (out / "report.md").read_text()
     assert not (out / "configurations.csv").exists()
+
+
+def test_smoothness_reads_each_plans_largest_kink_per_configuration_and_planner():
+    t = np.linspace(0.0, 1.0, 30)[:, None]
+    line = np.hstack([np.tile(t, (1, 7)), np.full((30, 1), 0.09)])  # straight in joint space
+    kinked = line.copy()
+    kinked[10, 3] += 0.2  # one knot 0.2 rad off: second differences 0.2, -0.4, 0.2
+    kinked[20, 7] += 0.05  # the gripper does not count
+    assert largest_kink(line) == pytest.approx(0.0, abs=1e-12)
+    assert largest_kink(kinked) == pytest.approx(0.4)
+    assert largest_kink(line[:2]) == 0.0
+
+    def row(planner, q):
+        return {"config_name": "default", "planner": planner,
+                "plan": {"trajectory": {"q": q.tolist()}}}
+
+    rows = [row("baseline", line), row("physics", line), row("physics", kinked),
+            {"config_name": "default", "planner": "physics", "plan": None}]
+    table = {r["planner"]: r for r in smoothness(rows)}
+    assert table["baseline"]["plans"] == 1 and table["baseline"]["kink_max"] < 1e-12
+    assert table["physics"]["plans"] == 2
+    assert table["physics"]["kink_median"] == pytest.approx(0.2)
+    assert table["physics"]["kink_max"] == pytest.approx(0.4)

@@ -8,7 +8,7 @@ width w (square footprint), height h and lateral offset y sweep a grid; for each
 baseline's plan is replayed in Bullet (`judge.evaluate`) and rolled out in phi with both
 boxes dynamic (`bench_fidelity.phi_final`), and both boxes are classed as in Sec. III
 (standing / tipped / fallen). Printed per case: each engine's class, displacement (cm) and
-tilt (deg) of the obstacle, and the target's class in each; then how many boxes agree.
+tilt (deg) of the obstacle and of the target; then how many boxes agree.
 ``--set`` overrides apply to both engines' configuration (e.g. ``evaluation.*`` for the
 judge, ``world.*`` / ``dynamics.*`` for phi).
 """
@@ -77,7 +77,9 @@ def main(argv=None) -> int:
                 agree["obstacle"] += cb[1] == cp[1]
                 print(f"{label}: obstacle Bullet {cb[1]:8} {mb[1]:5.1f} cm {tb[1]:3.0f} deg | "
                       f"phi {cp[1]:8} {min(mp[1], 999.9):5.1f} cm {tp[1]:3.0f} deg | target "
-                      f"Bullet {cb[0]}, phi {cp[0]} ({case['kind']})", flush=True)
+                      f"Bullet {cb[0]} {mb[0]:5.1f} cm {tb[0]:3.0f} deg, phi {cp[0]} "
+                      f"{min(mp[0], 999.9):5.1f} cm {tp[0]:3.0f} deg ({case['kind']})",
+                      flush=True)
     print(f"\n{cases} pushes: obstacle classes agree {agree['obstacle']}/{cases}, target "
           f"{agree['target']}/{cases}")
     return 0

@@ -50,6 +50,15 @@ from drake_clutter.experiments.paired import (
     row_kinds,
     row_p_success,
 )
+from drake_clutter.experiments.plan_statistics import (
+    format_percent,
+    groups,
+    markdown_smoothness,
+    markdown_stages,
+    percent,
+    smoothness,
+    stage_statistics,
+)
 from drake_clutter.planners.selection import selection_score as planner_selection_score
 
 ENVIRONMENTS = ("bookshelf", "fridge")
@@ -89,22 +98,6 @@ def check_report_config(config: ReportConfig, file: str = "<configuration>") -> 
                           f"must lie strictly between 0 and 1, got {config.confidence}")
 
 
-def _pct(part: int, whole: int) -> float | None:
-    return None if whole == 0 else 100.0 * part / whole
-
-
-def _fmt(value: float | None) -> str:
-    return "-" if value is None else f"{value:.1f}%"
-
-
-def groups(rows: list[dict]) -> dict[tuple[str, str], list[dict]]:
-    """Rows by (configuration name, planner), in first-seen order."""
-    out: dict[tuple[str, str], list[dict]] = {}
-    for row in rows:
-        out.setdefault((row["config_name"], row["planner"]), []).append(row)
-    return out
-
-
 def scene_scores(rows: list[dict]) -> dict[str, tuple[str, int, str]]:
     """scene -> (environment, number of objects, scene score) over the rows of one group."""
     kinds: dict[str, list[str]] = defaultdict(list)
@@ -138,11 +131,11 @@ def table_iii(rows: list[dict]) -> list[dict]:
             success, partial = chosen.count("success"), chosen.count("partial_success")
             paper = PAPER_TABLE_III.get(planner, {}).get(env, (None, None))
             out.append({"configuration": config, "planner": planner, "environment": env,
-                        "scenes": n, "success_pct": _pct(success, n),
-                        "partial_pct": _pct(partial, n),
-                        "success_or_partial_pct": _pct(success + partial, n),
-                        "robust_success_pct": _pct(sum(robust[s] for s in names), n),
-                        "robust_success_or_partial_pct": _pct(
+                        "scenes": n, "success_pct": percent(success, n),
+                        "partial_pct": percent(partial, n),
+                        "success_or_partial_pct": percent(success + partial, n),
+                        "robust_success_pct": percent(sum(robust[s] for s in names), n),
+                        "robust_success_or_partial_pct": percent(
                             sum(robust_or_partial[s] for s in names), n),
                         "paper_success_or_partial_pct": paper[0], "paper_partial_pct": paper[1]})
     return out
@@ -158,8 +151,8 @@ def table_iv(rows: list[dict]) -> list[dict]:
         replays = [k for r in group if r["kind"] != "planner_failure" for k in row_kinds(r)]
         for kind in TRAJECTORY_KINDS:
             out.append({"configuration": config, "planner": planner, "outcome": kind,
-                        "count": kinds.count(kind), "pct": _pct(kinds.count(kind), trajectories),
-                        "robust_pct": _pct(replays.count(kind), len(replays)),
+                        "count": kinds.count(kind), "pct": percent(kinds.count(kind), trajectories),
+                        "robust_pct": percent(replays.count(kind), len(replays)),
                         "paper_pct": PAPER_TABLE_IV.get(planner, {}).get(kind)})
         out.append({"configuration": config, "planner": planner, "outcome": "planner_failure",
                     "count": kinds.count("planner_failure"), "pct": None, "robust_pct": None,
@@ -195,9 +188,9 @@ def fig9_data(rows: list[dict]) -> list[dict]:
                 success, partial = chosen.count("success"), chosen.count("partial_success")
                 out.append({"configuration": config, "planner": planner, "environment": env,
                             "num_objects": n, "scenes": len(chosen),
-                            "success_pct": _pct(success, len(chosen)),
-                            "success_or_partial_pct": _pct(success + partial, len(chosen)),
-                            "robust_success_pct": _pct(sum(robust[s] for s in names),
+                            "success_pct": percent(success, len(chosen)),
+                            "success_or_partial_pct": percent(success + partial, len(chosen)),
+                            "robust_success_pct": percent(sum(robust[s] for s in names),
                                                        len(chosen)),
                             "initializations": len(times),
                             "mean_seconds_per_init": sum(times) / len(times) if times
@@ -312,10 +305,10 @@ def markdown_table_iii(table: list[dict]) -> str:
         paper = ("-" if r["paper_success_or_partial_pct"] is None else
                  f"{r['paper_success_or_partial_pct']:.1f}% ({r['paper_partial_pct']:.1f}%)")
         lines.append(f"| {r['configuration']} | {r['planner']} | {ENV_LABELS[r['environment']]}"
-                     f" | {r['scenes']} | {_fmt(r['success_or_partial_pct'])} "
-                     f"({_fmt(r['partial_pct'])}) | {_fmt(r['success_pct'])} | "
-                     f"{_fmt(r['robust_success_or_partial_pct'])} | "
-                     f"{_fmt(r['robust_success_pct'])} | {paper} |")
+                     f" | {r['scenes']} | {format_percent(r['success_or_partial_pct'])} "
+                     f"({format_percent(r['partial_pct'])}) | {format_percent(r['success_pct'])} | "
+                     f"{format_percent(r['robust_success_or_partial_pct'])} | "
+                     f"{format_percent(r['robust_success_pct'])} | {paper} |")
     return "\n".join(lines)
 
 
@@ -328,7 +321,7 @@ def markdown_table_iv(table: list[dict]) -> str:
         outcome = ("no trajectory (planner_failure, not in the %)"
                    if r["outcome"] == "planner_failure" else r["outcome"])
         lines.append(f"| {r['configuration']} | {r['planner']} | {outcome} | {r['count']} | "
-                     f"{_fmt(r['pct'])} | {_fmt(r['robust_pct'])} | {paper} |")
+                     f"{format_percent(r['pct'])} | {format_percent(r['robust_pct'])} | {paper} |")
     return "\n".join(lines)
 
 
@@ -339,90 +332,11 @@ def markdown_fig9(data: list[dict]) -> str:
              "|---|---|---|---:|---:|---:|---:|---:|---:|---:|"]
     for p in data:
         secs = "-" if p["mean_seconds_per_init"] is None else f"{p['mean_seconds_per_init']:.2f}"
+        shares = " | ".join(format_percent(p[k]) for k in
+                            ("success_pct", "success_or_partial_pct", "robust_success_pct"))
         lines.append(f"| {p['configuration']} | {p['planner']} | {ENV_LABELS[p['environment']]}"
-                     f" | {p['num_objects']} | {p['scenes']} | {_fmt(p['success_pct'])} | "
-                     f"{_fmt(p['success_or_partial_pct'])} | {_fmt(p['robust_success_pct'])} | "
+                     f" | {p['num_objects']} | {p['scenes']} | {shares} | "
                      f"{p['initializations']} | {secs} |")
-    return "\n".join(lines)
-
-
-PHI_STAGES = ("sphere", "full")  # the physics plan's stages through phi (its details' names)
-SELECTIONS = ("post", "pre", "baseline", "search")  # the paths the physics planner chooses among
-
-
-def stage_statistics(rows: list[dict]) -> list[dict]:
-    """Per configuration and phi stage of the physics rows' plans: the stages run, those that
-    accepted at least one iLQR iteration (count and %), the accepted steps and the quartiles of
-    their actual / predicted decrease (the model's at the accepted step size), and how often
-    each path was the plan (`SELECTIONS`; stages without a choice are not counted)."""
-    out = []
-    for (config_name, planner), group in groups(rows).items():
-        if planner != "physics":
-            continue
-        details = [r["plan"].get("details", {}) for r in group if r.get("plan")]
-        chosen = [d.get("select", {}).get("chosen") for d in details]
-        for stage in PHI_STAGES:
-            records = [d["stages"][stage] for d in details if stage in d.get("stages", {})]
-            ratios = [e["actual"] / e["predicted"] for rec in records for e in rec["log"]
-                      if e.get("alpha", 0.0) > 0 and e.get("predicted", 0.0) > 0]
-            accepting = sum(rec["iterations"] > 0 for rec in records)
-            q = (np.percentile(ratios, [25, 50, 75]) if ratios else [None] * 3)
-            out.append({"configuration": config_name, "stage": stage, "stages": len(records),
-                        "accepting": accepting, "accepting_pct": _pct(accepting, len(records)),
-                        "accepted_steps": len(ratios), "ratio_q25": q[0], "ratio_median": q[1],
-                        "ratio_q75": q[2],
-                        **{f"chosen_{n}": chosen.count(n) for n in SELECTIONS}})
-    return out
-
-
-def markdown_stages(table: list[dict]) -> str:
-    """`stage_statistics` as Markdown."""
-    lines = ["| configuration | stage | stages | accepting >= 1 iteration | accepted steps | "
-             "actual / predicted: median [quartiles] | plan chosen: post / pre / baseline / "
-             "search |",
-             "|---|---|---:|---:|---:|---:|---:|"]
-    for r in table:
-        ratio = ("-" if r["ratio_median"] is None else f"{r['ratio_median']:.2f} "
-                 f"[{r['ratio_q25']:.2f}, {r['ratio_q75']:.2f}]")
-        lines.append(f"| {r['configuration']} | {r['stage']} | {r['stages']} | "
-                     f"{r['accepting']} ({_fmt(r['accepting_pct'])}) | {r['accepted_steps']} | "
-                     f"{ratio} | {r['chosen_post']} / {r['chosen_pre']} / "
-                     f"{r['chosen_baseline']} / {r['chosen_search']} |")
-    return "\n".join(lines)
-
-
-def largest_kink(q: np.ndarray) -> float:
-    """The largest knot-to-knot second difference |q_{t+1} - 2 q_t + q_{t-1}| of an arm
-    joint (the first 7 columns of the knot path ``q``, rad); 0 for fewer than 3 knots."""
-    arm = np.asarray(q, float)[:, :7]
-    if len(arm) < 3:
-        return 0.0
-    return float(np.abs(arm[2:] - 2.0 * arm[1:-1] + arm[:-2]).max())
-
-
-def smoothness(rows: list[dict]) -> list[dict]:
-    """Per configuration and planner: the plans' `largest_kink` (rad), median, 90th
-    percentile and maximum over the plans stored."""
-    out = []
-    for (config_name, planner), group in groups(rows).items():
-        kinks = [largest_kink(r["plan"]["trajectory"]["q"]) for r in group
-                 if (r.get("plan") or {}).get("trajectory")]
-        if not kinks:
-            continue
-        median, p90 = np.percentile(kinks, [50, 90])
-        out.append({"configuration": config_name, "planner": planner, "plans": len(kinks),
-                    "kink_median": float(median), "kink_p90": float(p90),
-                    "kink_max": float(max(kinks))})
-    return out
-
-
-def markdown_smoothness(table: list[dict]) -> str:
-    """`smoothness` as Markdown."""
-    lines = ["| configuration | planner | plans | largest kink per plan (rad): median | 90th "
-             "percentile | max |", "|---|---|---:|---:|---:|---:|"]
-    lines += [f"| {r['configuration']} | {r['planner']} | {r['plans']} | "
-              f"{r['kink_median']:.3f} | {r['kink_p90']:.3f} | {r['kink_max']:.3f} |"
-              for r in table]
     return "\n".join(lines)
 
 

@@ -16,15 +16,17 @@ from drake_clutter.experiments.paired import (
     paired_comparison,
     paired_rows,
 )
-from drake_clutter.experiments.report import (
-    PAPER_TABLE_III,
+from drake_clutter.experiments.plan_statistics import (
     largest_kink,
     markdown_stages,
+    smoothness,
+    stage_statistics,
+)
+from drake_clutter.experiments.report import (
+    PAPER_TABLE_III,
     selected_plan_success,
     selected_rows,
     selection_score,
-    smoothness,
-    stage_statistics,
     table_iii,
     table_iv,
     write_report,

@@ -435,10 +435,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
             failed += 1
             mu = max(mu * settings.reg_factor, settings.reg_min)
         if not accepted:
-            stop_reason = (StopReason.REGULARIZATION_LIMIT if mu > settings.reg_max else
-                           StopReason.LINE_SEARCH_FAILED
-                           if failed and failed == settings.max_failed_searches
-                           else StopReason.CONVERGED)
+            stop_reason = stop_without_step(mu, failed, settings)
             iteration -= 1
             break
         xs, us, terms, new_total = step
@@ -461,6 +458,17 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     return ILQRResult(xs=xs, us=us, K=K, k=k, cost=total, cost_history=history,
                       term_history=term_history, iterations=iteration, stop_reason=stop_reason,
                       timings=timings, log=log)
+
+
+def stop_without_step(mu: float, failed: int, settings: ILQRSettings) -> StopReason:
+    """Why the solver stops when an iteration accepted no step: the regulariser past
+    reg_max, max_failed_searches failed line searches, or else a model predicting no
+    worthwhile decrease (converged)."""
+    if mu > settings.reg_max:
+        return StopReason.REGULARIZATION_LIMIT
+    if failed and failed == settings.max_failed_searches:
+        return StopReason.LINE_SEARCH_FAILED
+    return StopReason.CONVERGED
 
 
 def stalled(history: list[float], settings: ILQRSettings) -> bool:

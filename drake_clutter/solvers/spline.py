@@ -44,6 +44,7 @@ from drake_clutter.solvers.ilqr import (
     per_knot_bounds,
     rollout,
     stalled,
+    stop_without_step,
     subtract,
     zero_nonfinite,
 )
@@ -216,10 +217,7 @@ def _iterate(s: _State, settings: ILQRSettings, lo_c, hi_c) -> ILQRResult:
             failed += 1
             mu = max(mu * settings.reg_factor, settings.reg_min)
         if not accepted:
-            stop_reason = (StopReason.REGULARIZATION_LIMIT if mu > settings.reg_max else
-                           StopReason.LINE_SEARCH_FAILED
-                           if failed and failed == settings.max_failed_searches
-                           else StopReason.CONVERGED)
+            stop_reason = stop_without_step(mu, failed, settings)
             iteration -= 1
             break
         if settings.adaptive_step:

@@ -89,3 +89,18 @@ class SwingUpCost:
         return Expansion(lx=np.zeros((T, 2)), lu=0.01 * us, lxx=np.zeros((T, 2, 2)),
                          luu=np.full((T, 1, 1), 0.01), lux=np.zeros((T, 1, 2)),
                          vx=100.0 * (xs[-1] - self.goal), vxx=100.0 * np.eye(2))
+
+
+def stacked_lqr(A, B, Q, R, Qf, T):
+    """The LQR problem over a whole horizon: (Sx, Su, Qbar, Rbar) with the stacked states
+    x = Sx x0 + Su U and the objective 1/2 x' Qbar x + 1/2 U' Rbar U (batch least squares)."""
+    nx, nu = B.shape
+    Sx = np.zeros(((T + 1) * nx, nx))
+    Su = np.zeros(((T + 1) * nx, T * nu))
+    for t in range(T + 1):
+        Sx[t * nx:(t + 1) * nx] = np.linalg.matrix_power(A, t)
+        for s in range(t):
+            Su[t * nx:(t + 1) * nx, s * nu:(s + 1) * nu] = np.linalg.matrix_power(A, t - 1 - s) @ B
+    Qbar = np.kron(np.eye(T + 1), Q)
+    Qbar[-nx:, -nx:] = Qf
+    return Sx, Su, Qbar, np.kron(np.eye(T), R)

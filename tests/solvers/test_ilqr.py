@@ -19,21 +19,14 @@ from drake_clutter.testing.control_problems import (
     QuadraticCost,
     SwingUpCost,
     lqr_problem,
+    stacked_lqr,
 )
 
 
 def _batch_lqr(A, B, Q, R, Qf, x0, T):
     """Optimal controls by stacking x = Sx x0 + Su U and solving the normal equations."""
     nx, nu = B.shape
-    Sx = np.zeros(((T + 1) * nx, nx))
-    Su = np.zeros(((T + 1) * nx, T * nu))
-    for t in range(T + 1):
-        Sx[t * nx:(t + 1) * nx] = np.linalg.matrix_power(A, t)
-        for s in range(t):
-            Su[t * nx:(t + 1) * nx, s * nu:(s + 1) * nu] = np.linalg.matrix_power(A, t - 1 - s) @ B
-    Qbar = np.kron(np.eye(T + 1), Q)
-    Qbar[-nx:, -nx:] = Qf
-    Rbar = np.kron(np.eye(T), R)
+    Sx, Su, Qbar, Rbar = stacked_lqr(A, B, Q, R, Qf, T)
     H = Su.T @ Qbar @ Su + Rbar
     g = Su.T @ Qbar @ Sx @ x0
     return np.linalg.solve(H, -g).reshape(T, nu)

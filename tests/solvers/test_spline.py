@@ -20,6 +20,7 @@ from drake_clutter.testing.control_problems import (
     QuadraticCost,
     SwingUpCost,
     lqr_problem,
+    stacked_lqr,
 )
 
 
@@ -30,15 +31,7 @@ def _batch_spline_lqr(A, B, Q, R, Qf, x0, T, basis, q0):
     spline = SplineControls(basis, q0)
     P = spline.M.shape[1]
     G = np.kron(spline.M, np.eye(nu))  # (T nu, P nu): vec(u) = vec(offset) + G vec(C)
-    Sx = np.zeros(((T + 1) * nx, nx))
-    Su = np.zeros(((T + 1) * nx, T * nu))
-    for t in range(T + 1):
-        Sx[t * nx:(t + 1) * nx] = np.linalg.matrix_power(A, t)
-        for s in range(t):
-            Su[t * nx:(t + 1) * nx, s * nu:(s + 1) * nu] = np.linalg.matrix_power(A, t - 1 - s) @ B
-    Qbar = np.kron(np.eye(T + 1), Q)
-    Qbar[-nx:, -nx:] = Qf
-    Rbar = np.kron(np.eye(T), R)
+    Sx, Su, Qbar, Rbar = stacked_lqr(A, B, Q, R, Qf, T)
     off = spline.offset.ravel()
     Sc = Su @ G
     H = Sc.T @ Qbar @ Sc + G.T @ Rbar @ G

@@ -341,6 +341,8 @@ class ReportConfig:
     bootstrap_seed: int = 0
     # coverage of the confidence intervals, unitless (0.95 = 95 %); ours
     confidence: float = 0.95
+    # scenes listed per configuration where the P(success) difference lies, count; ours
+    contribution_scenes: int = 5
 
 
 @dataclass(frozen=True)

@@ -184,3 +184,44 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
                      f"{r['expected_grade_ci_high']:+.3f}] | "
                      f"{_p(r['expected_grade_wilcoxon_p'])} |")
     return "\n".join(lines)
+
+
+def scene_contributions(pairs: list[dict], top: int) -> list[dict]:
+    """Where a mean P(success) difference lies: per configuration of ``pairs`` (`paired_rows`
+    or `configuration_rows`), each scene's share of the configuration's mean difference
+    (physics minus baseline: the scene's summed per-initialization differences over all the
+    configuration's pairs, so a configuration's shares sum to its mean), with the kinds of
+    the pairs that differ. Only scenes whose share is non-zero; the ``top`` largest in
+    magnitude per configuration, largest first."""
+    by_config: dict[str, dict[str, list[dict]]] = {}
+    for p in pairs:
+        by_config.setdefault(p["configuration"], {}).setdefault(p["scene"], []).append(p)
+    out = []
+    for config, scenes in by_config.items():
+        total = sum(len(ps) for ps in scenes.values())
+        rows = [_contribution(config, scene, ps, total) for scene, ps in scenes.items()]
+        rows = [r for r in rows if r["p_success_share"] != 0.0]
+        out.extend(sorted(rows, key=lambda r: -abs(r["p_success_share"]))[:top])
+    return out
+
+
+def _contribution(config: str, scene: str, pairs: list[dict], total: int) -> dict:
+    """One scene's row of `scene_contributions` (``total``: the configuration's pairs)."""
+    differing = [p for p in pairs if p["physics_p_success"] != p["baseline_p_success"]]
+    share = sum(p["physics_p_success"] - p["baseline_p_success"] for p in pairs) / total
+    return {"configuration": config, "scene": scene, "pairs": len(pairs),
+            "differing": len(differing), "p_success_share": float(share),
+            "changes": "; ".join(f"angle {p['angle']}: {p['baseline']} "
+                                 f"{p['baseline_p_success']:.2f} -> {p['physics']} "
+                                 f"{p['physics_p_success']:.2f}" for p in differing)}
+
+
+def markdown_contributions(table: list[dict]) -> str:
+    """`scene_contributions` as Markdown: configuration, scene, its share of the mean
+    P(success) difference, and the differing pairs as baseline -> physics (kind, P)."""
+    lines = ["| configuration | scene | pairs (differing) | share of the P(success) difference "
+             "| baseline -> physics, where P(success) differs |",
+             "|---|---|---:|---:|---|"]
+    lines += [f"| {r['configuration']} | {r['scene']} | {r['pairs']} ({r['differing']}) | "
+              f"{r['p_success_share']:+.3f} | {r['changes']} |" for r in table]
+    return "\n".join(lines)

@@ -18,6 +18,8 @@ Definitions (Sec. VI-B), per (configuration, planner):
   `judge.behaviour_grade` (class, then boxes tipped or fallen): better / same / worse,
   the kinematic failures of each, and a two-sided sign test on better against worse (ties
   left out). One plan per scene is a draw on toppling clutter; this is the fair reading.
+* Where the difference lies: per comparison, the scenes carrying the mean P(success)
+  difference (`paired.scene_contributions`), with the pairs that differ.
 * Selected-plan success (beyond the paper): per scene, the robust P(success) of the candidate
   each planner ranks first without the judge (`selection_score`), beside the best angle's.
 * Fig. 9c: mean planning time per initialization (s) against the number of objects: for the
@@ -44,11 +46,13 @@ from drake_clutter.experiments.paired import (
     bootstrap_interval,
     configuration_comparison,
     configuration_rows,
+    markdown_contributions,
     markdown_paired,
     paired_comparison,
     paired_rows,
     row_kinds,
     row_p_success,
+    scene_contributions,
 )
 from drake_clutter.experiments.plan_statistics import (
     format_percent,
@@ -96,6 +100,9 @@ def check_report_config(config: ReportConfig, file: str = "<configuration>") -> 
     if not 0.0 < config.confidence < 1.0:
         raise ConfigError(file, "report.confidence",
                           f"must lie strictly between 0 and 1, got {config.confidence}")
+    if config.contribution_scenes < 1:
+        raise ConfigError(file, "report.contribution_scenes",
+                          f"must be at least 1, got {config.contribution_scenes}")
 
 
 def scene_scores(rows: list[dict]) -> dict[str, tuple[str, int, str]]:
@@ -430,7 +437,8 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     (the three panels together), paired.csv (physics against the baseline per
     initialization), configurations.csv (every other physics configuration against the
     ``reference`` one per initialization; default the store's first, when it has two or more),
-    stages.csv (`stage_statistics`) and smoothness.csv (`smoothness`) into ``out_dir``
+    contributions.csv (`scene_contributions`), stages.csv (`stage_statistics`) and
+    smoothness.csv (`smoothness`) into ``out_dir``
     (created); returns the paths by name. ``config``: the paired comparison's bootstrap settings."""
     config = config or ReportConfig()
     physics_configs = physics_configurations(rows)
@@ -463,6 +471,11 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
                    f"\"baseline\" `{reference}`. Per pair: configurations.csv.", "",
                    markdown_paired(configuration_comparison(rows, reference, config), config),
                    ""]
+    contributions = scene_contributions(
+        paired_rows(rows) + (configuration_rows(rows, reference) if reference else []),
+        config.contribution_scenes)
+    paths["contributions.csv"] = out / "contributions.csv"
+    _write_csv(paths["contributions.csv"], contributions)
     stages = stage_statistics(rows)
     _write_csv(paths["stages.csv"], stages)
     selected = selected_plan_success(rows, config)
@@ -492,6 +505,13 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "P(success) (the robust judge's over its replays, else 1 or 0) and the expected "
             "grade class (lower is better), with a seeded percentile bootstrap interval.", "",
             markdown_paired(paired_comparison(rows, config), config), "", *against,
+            "## Where the P(success) difference lies", "",
+            "Per comparison above, the scenes whose initializations carry its mean P(success) "
+            "difference: each scene's share (its summed differences over the comparison's "
+            "pairs; the shares of a comparison sum to its mean), the "
+            f"{config.contribution_scenes} largest, and the pairs that differ as baseline -> "
+            "physics (kind, P(success)). Per scene: contributions.csv.", "",
+            markdown_contributions(contributions), "",
             "## The plan each planner would execute", "",
             "The paper scores a scene by its best angle, which only the judge can pick. Here "
             "each planner picks its own candidate without the judge - the baseline by its "

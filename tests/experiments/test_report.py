@@ -15,6 +15,7 @@ from drake_clutter.experiments.paired import (
     configuration_comparison,
     paired_comparison,
     paired_rows,
+    scene_contributions,
 )
 from drake_clutter.experiments.plan_statistics import (
     largest_kink,
@@ -183,6 +184,41 @@ def test_paired_differences_have_a_seeded_interval_and_a_signed_rank_p(tmp_path)
     narrow = bootstrap_interval(np.tile([0.0, 1.0], 200), ReportConfig())
     broad = bootstrap_interval([0.0, 1.0] * 5, ReportConfig())
     assert broad[0] < narrow[0] < 0.5 < narrow[1] < broad[1]
+
+
+def test_scene_contributions_split_the_mean_difference_among_the_scenes(tmp_path, capsys):
+    rows = _fill(tmp_path / "r.db")
+    pairs = paired_rows(rows)
+    shares = scene_contributions(pairs, top=10)
+    (summary,) = paired_comparison(rows)
+    # Three scenes gain one success each; the others' P(success) does not move: left out.
+    assert sum(r["p_success_share"] for r in shares) == pytest.approx(summary["p_success_diff"])
+    assert {r["scene"] for r in shares} == {"bookshelf_n01_s0", "bookshelf_n10_s0",
+                                            "fridge_n02_s1"}
+    assert all(r["p_success_share"] == pytest.approx(1 / len(pairs)) for r in shares)
+    fridge = _by(shares, scene="fridge_n02_s1")[0]
+    assert (fridge["pairs"], fridge["differing"]) == (2, 1)
+    assert fridge["changes"] == "angle 1: failure_to_grasp 0.00 -> success 1.00"
+    assert len(scene_contributions(pairs, top=2)) == 2
+    out = tmp_path / "report"
+    assert main(["report", str(tmp_path / "r.db"), "--out", str(out)]) == 0
+    assert "## Where the P(success) difference lies" in (out / "report.md").read_text()
+    with (out / "contributions.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == 3
+    assert main(["report", str(tmp_path / "r.db"), "--out", str(tmp_path / "never"),
+                 "--set", "report.contribution_scenes=0"]) == 2
+    assert "report.contribution_scenes" in capsys.readouterr().err
+
+
+def test_scene_contributions_rank_by_magnitude_and_keep_losses():
+    def pair(scene, angle, base, phys):
+        return {"configuration": "c", "scene": scene, "angle": angle, "baseline": "b",
+                "physics": "p", "baseline_p_success": base, "physics_p_success": phys}
+    pairs = [pair("a", 0, 1.0, 0.0), pair("a", 1, 0.25, 0.0), pair("b", 0, 0.0, 0.5),
+             pair("c", 0, 0.5, 0.5)]
+    shares = scene_contributions(pairs, top=5)
+    assert [r["scene"] for r in shares] == ["a", "b"]  # |-1.25 / 4| before |+0.5 / 4|
+    assert [r["p_success_share"] for r in shares] == pytest.approx([-1.25 / 4, 0.5 / 4])
 
 
 def _robust_row(planner, scene, angle, kinds):

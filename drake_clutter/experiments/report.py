@@ -459,11 +459,13 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     _write_csv(paths["table3.csv"], t3)
     _write_csv(paths["table4.csv"], t4)
     _write_csv(paths["fig9.csv"], f9)
-    _write_csv(paths["paired.csv"], paired_rows(rows))
-    against = []
+    pairs = paired_rows(rows)
+    _write_csv(paths["paired.csv"], pairs)
+    against, reference_pairs = [], []
     if reference is not None:
         paths["configurations.csv"] = out / "configurations.csv"
-        _write_csv(paths["configurations.csv"], configuration_rows(rows, reference))
+        reference_pairs = configuration_rows(rows, reference)
+        _write_csv(paths["configurations.csv"], reference_pairs)
         against = ["## Physics configurations against each other", "",
                    f"Each other configuration's physics plan against the `{reference}` "
                    "configuration's at the same scene and angle (the same initialization): "
@@ -471,9 +473,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
                    f"\"baseline\" `{reference}`. Per pair: configurations.csv.", "",
                    markdown_paired(configuration_comparison(rows, reference, config), config),
                    ""]
-    contributions = scene_contributions(
-        paired_rows(rows) + (configuration_rows(rows, reference) if reference else []),
-        config.contribution_scenes)
+    contributions = scene_contributions(pairs + reference_pairs, config.contribution_scenes)
     paths["contributions.csv"] = out / "contributions.csv"
     _write_csv(paths["contributions.csv"], contributions)
     stages = stage_statistics(rows)

@@ -19,6 +19,8 @@ from scipy.stats import binomtest, wilcoxon
 from drake_clutter.common.config import ReportConfig
 from drake_clutter.evaluation.outcome import GRADE_CLASSES, behaviour_grade
 
+SHARE_ROUNDING = 1e-12  # a scene's summed P(success) differences this small are zero (sums of k/K)
+
 
 def _robust(row: dict) -> dict | None:
     """The robust judge's summary data of a stored row (`robust.RobustSummary.to_data`), or
@@ -200,7 +202,7 @@ def scene_contributions(pairs: list[dict], top: int) -> list[dict]:
     for config, scenes in by_config.items():
         total = sum(len(ps) for ps in scenes.values())
         rows = [_contribution(config, scene, ps, total) for scene, ps in scenes.items()]
-        rows = [r for r in rows if r["p_success_share"] != 0.0]
+        rows = [r for r in rows if abs(r["p_success_share"]) > SHARE_ROUNDING]
         out.extend(sorted(rows, key=lambda r: -abs(r["p_success_share"]))[:top])
     return out
 

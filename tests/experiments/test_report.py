@@ -215,10 +215,11 @@ def test_scene_contributions_rank_by_magnitude_and_keep_losses():
         return {"configuration": "c", "scene": scene, "angle": angle, "baseline": "b",
                 "physics": "p", "baseline_p_success": base, "physics_p_success": phys}
     pairs = [pair("a", 0, 1.0, 0.0), pair("a", 1, 0.25, 0.0), pair("b", 0, 0.0, 0.5),
-             pair("c", 0, 0.5, 0.5)]
+             pair("c", 0, 0.5, 0.5), pair("d", 0, 0.0, 0.1), pair("d", 1, 0.0, 0.2),
+             pair("d", 2, 0.3, 0.0)]  # d: 0.1 + 0.2 - 0.3, not 0.0 in floating point
     shares = scene_contributions(pairs, top=5)
-    assert [r["scene"] for r in shares] == ["a", "b"]  # |-1.25 / 4| before |+0.5 / 4|
-    assert [r["p_success_share"] for r in shares] == pytest.approx([-1.25 / 4, 0.5 / 4])
+    assert [r["scene"] for r in shares] == ["a", "b"]  # |-1.25 / 7| before |+0.5 / 7|; d nets 0
+    assert [r["p_success_share"] for r in shares] == pytest.approx([-1.25 / 7, 0.5 / 7])
 
 
 def _robust_row(planner, scene, angle, kinds):

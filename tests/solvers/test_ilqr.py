@@ -25,7 +25,7 @@ from drake_clutter.testing.control_problems import (
 
 def _batch_lqr(A, B, Q, R, Qf, x0, T):
     """Optimal controls by stacking x = Sx x0 + Su U and solving the normal equations."""
-    nx, nu = B.shape
+    nu = B.shape[1]
     Sx, Su, Qbar, Rbar = stacked_lqr(A, B, Q, R, Qf, T)
     H = Su.T @ Qbar @ Su + Rbar
     g = Su.T @ Qbar @ Sx @ x0
@@ -318,15 +318,8 @@ def test_per_knot_bounds_pin_controls_and_the_rest_solve_the_reduced_problem():
                    ILQRSettings(max_iterations=10, u_min=lo, u_max=hi, tolerance=1e-14))
     np.testing.assert_array_equal(result.us[pinned], values[pinned])
     # the reduced problem: J(U) = 1/2 U'HU + g'U over the free entries of U
-    nx = A.shape[0]
-    Sx = np.vstack([np.linalg.matrix_power(A, t) for t in range(T + 1)])
-    Su = np.zeros(((T + 1) * nx, T * nu))
-    for t in range(T + 1):
-        for s in range(t):
-            Su[t * nx:(t + 1) * nx, s * nu:(s + 1) * nu] = np.linalg.matrix_power(A, t - 1 - s) @ B
-    Qbar = np.kron(np.eye(T + 1), Q)
-    Qbar[-nx:, -nx:] = Qf
-    H = Su.T @ Qbar @ Su + np.kron(np.eye(T), R)
+    Sx, Su, Qbar, Rbar = stacked_lqr(A, B, Q, R, Qf, T)
+    H = Su.T @ Qbar @ Su + Rbar
     g = Su.T @ Qbar @ Sx @ x0
     free, fixed = ~pinned.ravel(), values.ravel()
     rhs = -(g[free] + H[np.ix_(free, ~free)] @ fixed[~free])

@@ -27,7 +27,7 @@ from drake_clutter.testing.control_problems import (
 def _batch_spline_lqr(A, B, Q, R, Qf, x0, T, basis, q0):
     """The controls minimising the LQR objective among u = offset + M C, by the normal
     equations in C."""
-    nx, nu = B.shape
+    nu = B.shape[1]
     spline = SplineControls(basis, q0)
     P = spline.M.shape[1]
     G = np.kron(spline.M, np.eye(nu))  # (T nu, P nu): vec(u) = vec(offset) + G vec(C)

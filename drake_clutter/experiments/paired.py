@@ -115,12 +115,23 @@ def _mean_difference(pairs: list[dict], key: str, config: ReportConfig) -> dict:
             f"{key}_ci_high": high, f"{key}_wilcoxon_p": signed_rank_p(diffs)}
 
 
+def _selection_ceiling(pairs: list[dict], config: ReportConfig) -> dict:
+    """What a perfect choice between the two plans of each initialization would gain: the mean
+    of max(physics, baseline) minus baseline P(success), with its bootstrap interval. The
+    bound on any selector that executes one of the two plans (a judge-free one included)."""
+    gains = [max(p["physics_p_success"], p["baseline_p_success"]) - p["baseline_p_success"]
+             for p in pairs]
+    low, high = bootstrap_interval(gains, config)
+    return {"p_success_ceiling": float(np.mean(gains)), "p_success_ceiling_ci_low": low,
+            "p_success_ceiling_ci_high": high}
+
+
 def paired_comparison(rows: list[dict], settings: ReportConfig | None = None) -> list[dict]:
     """Per configuration: pairs, better / same / worse, kinematic failures of each planner,
     the two-sided sign test's p-value on better against worse (None when all tie), and the
     mean difference physics minus baseline per initialization in P(success) and in expected
     grade class, each with its bootstrap interval (``settings``) and Wilcoxon signed-rank
-    p-value."""
+    p-value; and the selection ceiling (`_selection_ceiling`)."""
     return _summaries(paired_rows(rows), settings or ReportConfig())
 
 
@@ -141,7 +152,8 @@ def _summaries(pairs_in: list[dict], settings: ReportConfig) -> list[dict]:
                     "sign_test_p": (binomtest(better, better + worse).pvalue
                                     if better + worse else None),
                     **_mean_difference(pairs, "p_success", settings),
-                    **_mean_difference(pairs, "expected_grade", settings)})
+                    **_mean_difference(pairs, "expected_grade", settings),
+                    **_selection_ceiling(pairs, settings)})
     return out
 
 
@@ -174,8 +186,9 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
     level = f"{100 * (config or ReportConfig()).confidence:g} %"
     lines = ["| configuration | pairs | physics better | same | worse | kinematic failures "
              f"physics / baseline | sign test p | P(success) difference [{level} CI] | "
-             f"Wilcoxon p | expected grade difference [{level} CI] | Wilcoxon p |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             f"Wilcoxon p | expected grade difference [{level} CI] | Wilcoxon p | "
+             f"P(success) gain of the better plan of each pair [{level} CI] |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in table:
         lines.append(f"| {r['configuration']} | {r['pairs']} | {r['better']} | {r['same']} | "
                      f"{r['worse']} | {r['physics_kinematic_failures']} / "
@@ -184,7 +197,9 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
                      f"{r['p_success_ci_high']:+.3f}] | {_p(r['p_success_wilcoxon_p'])} | "
                      f"{r['expected_grade_diff']:+.3f} [{r['expected_grade_ci_low']:+.3f}, "
                      f"{r['expected_grade_ci_high']:+.3f}] | "
-                     f"{_p(r['expected_grade_wilcoxon_p'])} |")
+                     f"{_p(r['expected_grade_wilcoxon_p'])} | "
+                     f"{r['p_success_ceiling']:+.3f} [{r['p_success_ceiling_ci_low']:+.3f}, "
+                     f"{r['p_success_ceiling_ci_high']:+.3f}] |")
     return "\n".join(lines)
 
 

@@ -503,7 +503,10 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "objects falling, kinematic failure), then the boxes tipped or fallen. Per pair: "
             "paired.csv. The differences are per initialization, physics minus baseline: "
             "P(success) (the robust judge's over its replays, else 1 or 0) and the expected "
-            "grade class (lower is better), with a seeded percentile bootstrap interval.", "",
+            "grade class (lower is better), with a seeded percentile bootstrap interval. The "
+            "last column is the most any choice between the pair's two plans could gain over "
+            "the baseline (the better plan's P(success) minus the baseline's): the ceiling of "
+            "plan selection, judge-free or not.", "",
             markdown_paired(paired_comparison(rows, config), config), "", *against,
             "## Where the P(success) difference lies", "",
             "Per comparison above, the scenes whose initializations carry its mean P(success) "

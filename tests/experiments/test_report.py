@@ -13,6 +13,7 @@ from drake_clutter.common.config import ReportConfig
 from drake_clutter.experiments.paired import (
     bootstrap_interval,
     configuration_comparison,
+    markdown_paired,
     paired_comparison,
     paired_rows,
     scene_contributions,
@@ -249,6 +250,20 @@ def test_robust_columns_take_each_scenes_best_angle_and_every_replay():
     (summary,) = paired_comparison(rows)
     assert summary["p_success_diff"] == pytest.approx(((1 - .75) + (.5 - .25) + (.5 - 0)) / 3)
     assert summary["expected_grade_diff"] < 0  # physics lower, i.e. better
+
+
+def test_the_selection_ceiling_takes_the_better_plan_of_each_pair():
+    rows = [_robust_row("baseline", "a", 0, ["success"] * 3 + ["failure_to_grasp"]),
+            _robust_row("physics", "a", 0, ["success"] + ["failure_to_grasp"] * 3),
+            _robust_row("baseline", "b", 0, ["failure_to_grasp"] * 4),
+            _robust_row("physics", "b", 0, ["success"] * 2 + ["failure_to_grasp"] * 2)]
+    (summary,) = paired_comparison(rows)
+    # Scene a: the baseline is better (no gain); scene b: physics gains 0.5.
+    assert summary["p_success_diff"] == pytest.approx(((.25 - .75) + (.5 - 0)) / 2)
+    assert summary["p_success_ceiling"] == pytest.approx((0 + .5) / 2)
+    assert summary["p_success_ceiling_ci_low"] == pytest.approx(0.0)
+    assert summary["p_success_ceiling_ci_high"] == pytest.approx(0.5)
+    assert "+0.250 [+0.000, +0.500]" in markdown_paired([summary])
 
 
 def test_a_report_setting_that_makes_no_sense_names_its_field(tmp_path, capsys):

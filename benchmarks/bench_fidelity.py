@@ -24,7 +24,9 @@ disagreements by class (Bullet's -> phi's). Jams: does phi see the arm push hard
 fails kinematically (Sec. III: the arm cannot follow, or presses the shelf through a box)?
 phi's peak knot-mean contact force on the arm (`dynamics.Phi.contact_forces`' entry 0) over
 the plan (up to Bullet's failure time plus a knot where it failed), over JAM_N or not, against
-Bullet's kinematic failure or not; and the median peaks of both groups. (A finger on the board
+Bullet's kinematic failure or not, and the median peaks of both groups; and the judge's own
+measure read in phi: the peak knot-mean force of a box on the shelf beyond its weight
+(`Phi.shelf_forces`), over each of SHELF_THRESHOLDS_N. (A finger on the board
 is c_static's matter: phi's arm passes through the shelf.)
 """
 
@@ -48,6 +50,7 @@ SCENES = ("fig5_large_small", "fig6_push_sideways", "fig7_cascade", "fig8_snakin
 MOVED_CM = 1.0  # a box that moved less than this in both engines says nothing
 THROWN_CM, SHORT_CM = 100.0, 30.0  # phi over THROWN_CM where Bullet under SHORT_CM: thrown
 JAM_N = 50.0  # N: phi's peak arm force that "predicts" a kinematic failure (Sec. III's 50 N)
+SHELF_THRESHOLDS_N = (2.0, 5.0, 10.0, 20.0, 50.0)  # phi's box-on-shelf excess read as a jam
 
 
 def _median_n(values: np.ndarray) -> str:
@@ -68,6 +71,8 @@ class Tally:
     confusion: dict = field(default_factory=dict)  # (Bullet class, phi class) -> boxes
     peaks: dict = field(default_factory=lambda: {True: [], False: []})  # Bullet kinematic
     # failure? -> phi's peak arm forces (N)
+    shelf: dict = field(default_factory=lambda: {True: [], False: []})  # the same -> phi's
+    # peak box-on-shelf force beyond the box's weight (N)
 
     def line(self, label: str) -> str:
         error = float(np.mean(self.errors)) if self.errors else 0.0
@@ -81,6 +86,15 @@ class Tally:
         return (f"jams: phi's arm over {JAM_N:.0f} N in {int(np.sum(kf > JAM_N))}/{len(kf)} "
                 f"Bullet kinematic failures and {int(np.sum(ok > JAM_N))}/{len(ok)} other "
                 f"plans; median peak {_median_n(kf)} vs {_median_n(ok)}")
+
+    def shelf_jams(self) -> str:
+        """phi's peak box-on-shelf excess (the judge's own measure) against Bullet's kinematic
+        failures, at each of SHELF_THRESHOLDS_N."""
+        kf, ok = (np.array(self.shelf[k]) for k in (True, False))
+        hits = ", ".join(f"{t:g} N: {int(np.sum(kf > t))}/{len(kf)} vs {int(np.sum(ok > t))}"
+                         f"/{len(ok)}" for t in SHELF_THRESHOLDS_N)
+        return (f"box on shelf beyond its weight, kinematic failures vs other plans over "
+                f"{hits}; median peak {_median_n(kf)} vs {_median_n(ok)}")
 
     def misses(self) -> str:
         """The disagreements, as 'Bullet class -> phi class: boxes'."""
@@ -139,10 +153,11 @@ def compare(replay: Replay, config, settle: float, tally: Tally, verbose: bool,
             arm: str = "capsules") -> None:
     """Rolls one plan out in phi under ``config`` and adds its agreement to ``tally``."""
     scene, max_tilt = replay.scene, config.evaluation.max_tilt
-    p_phi, tilt_phi, seconds, peak = phi_final(scene, replay.trajectory, config, settle, arm,
-                                               replay.fail_time)
+    p_phi, tilt_phi, seconds, peak, shelf_peak = phi_final(scene, replay.trajectory, config,
+                                                           settle, arm, replay.fail_time)
     tally.seconds += seconds
     tally.peaks[replay.failed].append(peak)
+    tally.shelf[replay.failed].append(shelf_peak)
     if replay.failed:
         if verbose:
             print(f"\n{replay.label}: Bullet {replay.kind} at {replay.fail_time:.2f} s; "
@@ -210,6 +225,7 @@ def main(argv=None) -> int:
         print(tally.line(label))
         print(f"{'':40} misses: {tally.misses()}")
         print(f"{'':40} {tally.jams()}")
+        print(f"{'':40} {tally.shelf_jams()}")
     return 0
 
 

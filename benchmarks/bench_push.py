@@ -43,7 +43,7 @@ def push_case(base, w: float, h: float, y: float, config):
     if not candidate.ok:
         return None
     outcome = evaluate(scene, candidate.trajectory, config.evaluation)
-    p_phi, tilt_phi, _, _ = phi_final(scene, candidate.trajectory, config, 2.0)
+    p_phi, tilt_phi, *_ = phi_final(scene, candidate.trajectory, config, 2.0)
     start = np.array([[b.pose[0], b.pose[1], scene.box_center_z(b)] for b in scene.boxes])
     p_bullet = np.array([b.final_position for b in outcome.boxes])
     tilt_bullet = np.array([b.tilt for b in outcome.boxes])

@@ -369,6 +369,7 @@ class Phi:
         self._geometry_nodes = self._map_geometry_to_nodes()
         self._contact_port = self.plant.get_contact_results_output_port()
         self.failures = 0
+        self.shelf_forces = np.full(self.num_forces, np.nan)  # of the last step_forces
 
     # -- layout in the plant
 
@@ -460,7 +461,10 @@ class Phi:
         return self._step(x, u, trace=True, forces=True)
 
     def step_forces(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """phi(x, u) and its contact forces (see `contact_forces`), without tracing."""
+        """phi(x, u) and its contact forces (see `contact_forces`), without tracing. After it
+        ``shelf_forces`` holds each node's summed |f| with the shelf over the
+        knot, its sub-steps' mean (N, shape (1 + n,); NaN after a failed step): the quantity
+        Sec. III's kinematic failure reads in Bullet, a box's weight included."""
         x_next, _, f = self._step(x, u, trace=False, forces=True)
         return x_next, f
 
@@ -471,6 +475,8 @@ class Phi:
 
     def _step(self, x, u, trace: bool, forces: bool) -> tuple[np.ndarray, set, np.ndarray]:
         f = np.zeros(self.num_forces)
+        shelf = np.zeros(self.num_forces)
+        self.shelf_forces = shelf * np.nan
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
             self.failures += 1  # Drake aborts on non-finite positions: never hand them over
             return np.full(self.layout.nx, np.nan), set(), f * np.nan
@@ -486,7 +492,9 @@ class Phi:
                     edges |= self.interactions() if k == 0 else self.contacts()
                 state = self.plant.EvalUniquePeriodicDiscreteUpdate(self.context)
                 if forces:  # the same cached SAP solve as the update
-                    f += self.contact_forces()
+                    between, with_shelf = self._forces_by_node()
+                    f += self._counted(between, with_shelf)
+                    shelf += with_shelf
                 self.context.SetDiscreteState(self._speed_capped(state.value()))
             if trace:
                 edges |= self.interactions()
@@ -497,6 +505,7 @@ class Phi:
         if not np.all(np.isfinite(x_next)):
             self.failures += 1
             return np.full(self.layout.nx, np.nan), edges, f * np.nan
+        self.shelf_forces = shelf / n
         return x_next, edges, f / n
 
     def _speed_capped(self, values: np.ndarray) -> np.ndarray:
@@ -526,9 +535,19 @@ class Phi:
         the weight at every knot; beyond it the box is pressed into the shelf, Sec. III's
         kinematic failure); a body's internal contacts are left out. A pair appears in both
         its nodes' entries. `step_full` averages this over a knot's sub-steps."""
+        return self._counted(*self._forces_by_node())
+
+    def _counted(self, between: np.ndarray, shelf: np.ndarray) -> np.ndarray:
+        """`contact_forces` from `_forces_by_node`'s two sums: a box's shelf contact counts
+        only beyond its allowance."""
+        return between + np.maximum(0.0, shelf - self._shelf_allowance)
+
+    def _forces_by_node(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per node (N, shape (1 + n,) each): the summed |f| of its contacts with other objects,
+        and of a kept box's contacts with the shelf (all of it, its weight included)."""
         pairs = contact_pairs(self._contact_port.Eval(self.context))
         f, shelf = self.sum_by_node(((a, b, [np.linalg.norm(force)]) for a, b, force in pairs), 1)
-        return f[:, 0] + np.maximum(0.0, shelf[:, 0] - self._shelf_allowance)
+        return f[:, 0], shelf[:, 0]
 
     def sum_by_node(self, rows, width: int) -> tuple[np.ndarray, np.ndarray]:
         """Sums per node (1 + n, width) of (geometry id A, geometry id B, row) contacts, as

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig
 from drake_clutter.phi.dynamics import (
     ARM_DIM,
+    GRAVITY,
     Phi,
     StateLayout,
     initial_state,
@@ -254,6 +255,27 @@ def test_a_box_pressed_into_the_shelf_has_a_force_a_resting_one_has_none(pruned1
     _, f_pressed = phi.step_forces(x, hold)
     assert f_pressed[far[0] + 1] > 0.0
     assert phi.spec.config.shelf_force_allowance > 1.0  # the weight itself is never a cost
+
+
+def test_the_shelf_force_of_a_resting_box_is_its_weight(pruned10):
+    """``shelf_forces``: the judge's measure in phi - a resting box's knot-mean shelf force is
+    its weight, a box driven into the board presses it harder, a failed step reads NaN."""
+    spec, _, phi, x0, _ = pruned10
+    hold = x0[:ARM_DIM]
+    _, f_rest = phi.step_forces(x0, hold)
+    weights = np.array([GRAVITY * spec.scene.box(n).mass for n in spec.layout.box_names])
+    far = f_rest[1:] == 0.0  # boxes the parked arm does not touch
+    assert far.any()
+    assert phi.shelf_forces[0] == 0.0  # the arm never meets the shelf in phi
+    np.testing.assert_allclose(phi.shelf_forces[1:][far], weights[far], rtol=0.02)
+    rest = phi.shelf_forces.copy()
+    i = int(np.flatnonzero(far)[0])
+    x = x0.copy()
+    spec.layout.boxes(x)[i, 10:13] = (0.0, 0.0, -1.0)  # m/s, down into the board
+    phi.step_forces(x, hold)
+    assert phi.shelf_forces[i + 1] > 1.5 * rest[i + 1]
+    phi.step_forces(np.full_like(x0, np.nan), hold)
+    assert np.isnan(phi.shelf_forces).all()
 
 
 @pytest.mark.parametrize("approximation", [

@@ -7,12 +7,19 @@ judge does (Sec. III: standing, tipped, fallen) from their final positions and t
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drake_clutter.evaluation.judge import off_the_board, tilt_angle
-from drake_clutter.phi.dynamics import Phi, initial_state, make_spec, scene_box_states
+from drake_clutter.phi.dynamics import (
+    GRAVITY,
+    Phi,
+    initial_state,
+    make_spec,
+    scene_box_states,
+)
 
 
 def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list[str]:
@@ -22,26 +29,40 @@ def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list
             for f, t in zip(fallen, tilts, strict=True)]
 
 
+class PhiFinal(NamedTuple):
+    """Where phi leaves a plan's boxes, and the forces it saw on the way."""
+
+    positions: np.ndarray  # (n, 3), W, m: the boxes' final positions
+    tilts: np.ndarray  # (n,), rad: the boxes' final tilts
+    seconds: float  # the rollout's wall-clock time, s
+    arm_peak: float  # peak knot-mean contact force on the arm, N
+    shelf_peak: float  # peak knot-mean shelf force on a box beyond its weight, N
+
+
 def phi_final(scene, trajectory, config, settle: float, arm: str = "capsules",
-              until: float | None = None) -> tuple[np.ndarray, np.ndarray, float, float]:
-    """Box positions (n, 3, W, m) and tilts (n, rad) after phi, its arm in geometry variant
-    ``arm``, rolls the plan out with every box dynamic and holds the arm ``settle`` s; the
-    rollout's seconds; and the peak knot-mean contact force on the arm (N) over the plan, or
-    over its knots up to ``until`` s plus one knot."""
+              until: float | None = None) -> PhiFinal:
+    """phi, its arm in geometry variant ``arm``, rolls the plan out with every box dynamic and
+    holds the arm ``settle`` s: the boxes' final positions and tilts, the rollout's seconds,
+    and over the plan's knots (up to ``until`` s plus one knot, if given) the peak knot-mean
+    contact force on the arm and the peak knot-mean force of a box on the shelf beyond its
+    weight (Sec. III's kinematic-failure measure, which the judge averages over 0.2 s)."""
     names = [b.name for b in scene.boxes]
     knot_time = float(np.diff(trajectory.times[:2])[0])
     spec = make_spec(scene, names, None, knot_time, config.dynamics, config.world, arm)
     phi = Phi(spec)
+    weights = np.array([GRAVITY * scene.box(n).mass for n in spec.layout.box_names])
     tic = time.perf_counter()
     x = phi.settle(initial_state(spec.layout, trajectory.q[0], scene_box_states(scene)))
-    peak = 0.0
+    arm_peak, shelf_peak = 0.0, 0.0
     for t, u in zip(trajectory.times[1:], trajectory.q[1:], strict=True):
         if until is not None and t > until + knot_time:
             break
         x, f = phi.step_forces(x, u)
-        peak = max(peak, float(np.nan_to_num(f[0])))
+        arm_peak = max(arm_peak, float(np.nan_to_num(f[0])))
+        excess = np.nan_to_num(phi.shelf_forces[1:] - weights)
+        shelf_peak = max(shelf_peak, float(excess.max(initial=0.0)))
     x = phi.settle(x, settle)
     seconds = time.perf_counter() - tic
     boxes = spec.layout.boxes(x)
     R = Rotation.from_quat(np.nan_to_num(boxes[:, [1, 2, 3, 0]], nan=1.0)).as_matrix()
-    return boxes[:, 4:7], tilt_angle(R), seconds, peak
+    return PhiFinal(boxes[:, 4:7], tilt_angle(R), seconds, arm_peak, shelf_peak)

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig
+from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig, load_config
 from drake_clutter.phi.dynamics import (
     ARM_DIM,
     GRAVITY,
@@ -20,8 +20,9 @@ from drake_clutter.phi.dynamics import (
 )
 from drake_clutter.phi.pruning import make_pruned_spec, prune, swept_samples
 from drake_clutter.scene.generators import generate_scene
+from drake_clutter.testing.fidelity import phi_final
 from drake_clutter.testing.reach_paths import straight_reach
-from drake_clutter.trajectory import robot_positions
+from drake_clutter.trajectory import Trajectory, robot_positions
 
 finite = st.floats(-1.0, 1.0, allow_nan=False)
 
@@ -333,3 +334,17 @@ def test_a_thin_box_the_arm_never_touches_stays_upright_while_the_arm_swings():
     tilt = np.degrees(2.0 * np.arccos(min(1.0, abs(end[0]))))
     assert tilt < 1.0, f"tilted {tilt:.1f} deg untouched"
     assert np.linalg.norm(end[4:7] - start[4:7]) < 1e-3
+
+
+def test_phi_final_reads_where_a_plan_leaves_the_boxes_and_its_forces(scene10, reach10):
+    """The fidelity benchmarks' rollout: a still arm leaves the settled boxes where they stand
+    and presses nothing into the shelf; the straight reach pushes boxes and meets them."""
+    config = load_config()
+    start = np.array([[b.pose[0], b.pose[1], scene10.box_center_z(b)] for b in scene10.boxes])
+    still = phi_final(scene10, Trajectory(0.2 * np.arange(3), np.repeat(reach10[:1], 3, 0)),
+                      config, 0.2)
+    np.testing.assert_allclose(still.positions, start, atol=2e-3)
+    assert np.all(still.tilts < 0.01) and still.shelf_peak < 0.5  # N
+    reach = phi_final(scene10, Trajectory(0.2 * np.arange(len(reach10)), reach10), config, 0.2)
+    assert reach.arm_peak > 0.0 and reach.seconds > 0.0
+    assert np.linalg.norm(reach.positions - start, axis=1).max() > 0.01  # m: a box was pushed

@@ -462,9 +462,9 @@ class Phi:
 
     def step_forces(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """phi(x, u) and its contact forces (see `contact_forces`), without tracing. After it
-        ``shelf_forces`` holds each node's summed |f| with the shelf over the
-        knot, its sub-steps' mean (N, shape (1 + n,); NaN after a failed step): the quantity
-        Sec. III's kinematic failure reads in Bullet, a box's weight included."""
+        ``shelf_forces`` holds each node's summed |f| with the shelf over the knot, its
+        sub-steps' mean (N, shape (1 + n,); NaN after a failed step or one without forces):
+        the quantity Sec. III's kinematic failure reads in Bullet, a box's weight included."""
         x_next, _, f = self._step(x, u, trace=False, forces=True)
         return x_next, f
 
@@ -492,9 +492,7 @@ class Phi:
                     edges |= self.interactions() if k == 0 else self.contacts()
                 state = self.plant.EvalUniquePeriodicDiscreteUpdate(self.context)
                 if forces:  # the same cached SAP solve as the update
-                    between, with_shelf = self._forces_by_node()
-                    f += self._counted(between, with_shelf)
-                    shelf += with_shelf
+                    f += self.contact_forces(shelf_sum=shelf)
                 self.context.SetDiscreteState(self._speed_capped(state.value()))
             if trace:
                 edges |= self.interactions()
@@ -505,7 +503,8 @@ class Phi:
         if not np.all(np.isfinite(x_next)):
             self.failures += 1
             return np.full(self.layout.nx, np.nan), edges, f * np.nan
-        self.shelf_forces = shelf / n
+        if forces:
+            self.shelf_forces = shelf / n
         return x_next, edges, f / n
 
     def _speed_capped(self, values: np.ndarray) -> np.ndarray:
@@ -526,7 +525,7 @@ class Phi:
         values[self._nq + self._box_v] = v
         return values
 
-    def contact_forces(self) -> np.ndarray:
+    def contact_forces(self, shelf_sum: np.ndarray | None = None) -> np.ndarray:
         """Contact forces of the SAP step from the current plant state, per node (N, shape
         (1 + n,)): entry 0 the arm, entry i + 1 kept box i; each sums the magnitudes |f| of the
         contact forces (normal and friction together) between that node and every other object
@@ -534,20 +533,13 @@ class Phi:
         with the shelf count only beyond ``shelf_force_allowance`` x its weight (they carry
         the weight at every knot; beyond it the box is pressed into the shelf, Sec. III's
         kinematic failure); a body's internal contacts are left out. A pair appears in both
-        its nodes' entries. `step_full` averages this over a knot's sub-steps."""
-        return self._counted(*self._forces_by_node())
-
-    def _counted(self, between: np.ndarray, shelf: np.ndarray) -> np.ndarray:
-        """`contact_forces` from `_forces_by_node`'s two sums: a box's shelf contact counts
-        only beyond its allowance."""
-        return between + np.maximum(0.0, shelf - self._shelf_allowance)
-
-    def _forces_by_node(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per node (N, shape (1 + n,) each): the summed |f| of its contacts with other objects,
-        and of a kept box's contacts with the shelf (all of it, its weight included)."""
+        its nodes' entries. `step_full` averages this over a knot's sub-steps. ``shelf_sum``,
+        if given, has each node's whole |f| with the shelf (its weight included) added."""
         pairs = contact_pairs(self._contact_port.Eval(self.context))
         f, shelf = self.sum_by_node(((a, b, [np.linalg.norm(force)]) for a, b, force in pairs), 1)
-        return f[:, 0], shelf[:, 0]
+        if shelf_sum is not None:
+            shelf_sum += shelf[:, 0]
+        return f[:, 0] + np.maximum(0.0, shelf[:, 0] - self._shelf_allowance)
 
     def sum_by_node(self, rows, width: int) -> tuple[np.ndarray, np.ndarray]:
         """Sums per node (1 + n, width) of (geometry id A, geometry id B, row) contacts, as

@@ -29,15 +29,9 @@ from drake_clutter.common.config import load_config
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import dense_jacobians
 from drake_clutter.phi.derivatives import PhiDynamics
-from drake_clutter.phi.dynamics import (
-    ARM_NODE,
-    NU,
-    Phi,
-    initial_state,
-    make_spec,
-    scene_box_states,
-)
+from drake_clutter.phi.dynamics import ARM_NODE, Phi, initial_state, make_spec
 from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.state import NU, scene_box_states
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.scene.generators import generate_scene
 from drake_clutter.testing.reach_paths import straight_reach

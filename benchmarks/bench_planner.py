@@ -25,8 +25,9 @@ import time
 import numpy as np
 
 from drake_clutter.common.config import load_config
-from drake_clutter.phi.dynamics import Phi, initial_state, scene_box_states
+from drake_clutter.phi.dynamics import Phi, initial_state
 from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.state import scene_box_states
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.physics.pipeline import optimise_candidate

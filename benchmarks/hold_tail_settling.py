@@ -30,7 +30,7 @@ from drake_clutter.common.config import ConfigError, load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE
 from drake_clutter.experiments.specs import load_spec
 from drake_clutter.phi.derivatives import box_speeds
-from drake_clutter.phi.dynamics import box_state_to_pose
+from drake_clutter.phi.state import box_state_to_pose
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.physics.stage import stage_problem

@@ -8,7 +8,7 @@ AutoDiffXd Box-Box or Box-Capsule point queries: the "point" contact model canno
 set again on the AutoDiffXd plant before its context is made.
 
 The derivatives are taken in the same tangent coordinates as `derivatives` (see
-`dynamics.StateLayout`): each box rotation is seeded as q0 + E(q0) dtheta, and read back as
+`state.StateLayout`): each box rotation is seeded as q0 + E(q0) dtheta, and read back as
 dtheta' = 4 E(q')^T dq' / |q'|.
 
 `AutoDiffPhi.directional` seeds only chosen directions of [dx, du] (the colour groups of
@@ -23,13 +23,8 @@ from __future__ import annotations
 import numpy as np
 from pydrake.autodiffutils import ExtractGradient, ExtractValue, InitializeAutoDiff
 
-from drake_clutter.phi.dynamics import (
-    ARM_DIM,
-    BOX_TANGENT,
-    NU,
-    Phi,
-    quaternion_tangent_basis,
-)
+from drake_clutter.phi.dynamics import Phi
+from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, NU, quaternion_tangent_basis
 from drake_clutter.trajectory import robot_positions
 from drake_clutter.worlds.drake_world import contact_pairs
 

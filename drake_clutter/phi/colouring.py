@@ -2,7 +2,7 @@
 made cheap by `derivatives.PhiDynamics`): which columns and rows each interaction node (the arm,
 each kept box) owns, connected components of the interaction graph, Curtis-Powell-Reid colouring
 (columns of different components perturbed together), and one group's difference quotients by
-finite differences or AutoDiffXd directions. Tangent coordinates (`dynamics.StateLayout`).
+finite differences or AutoDiffXd directions. Tangent coordinates (`state.StateLayout`).
 """
 
 from __future__ import annotations
@@ -12,7 +12,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from drake_clutter.phi.autodiff import AutoDiffPhi
-from drake_clutter.phi.dynamics import ARM_DIM, ARM_NODE, BOX_TANGENT, NU, Phi, StateLayout
+from drake_clutter.phi.dynamics import ARM_NODE, Phi
+from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, NU, StateLayout
 
 # ----------------------------------------------------------------------------- columns
 

@@ -30,7 +30,7 @@ Brute force perturbs every column of [x, u] (ndx + nu + 1 phi evaluations per kn
    (`active_knots`) are differentiated too: an arm-box contact lasts 1-2 knots, and
    interpolating across it smears the push over knots where nothing touches.
 
-Jacobians live in tangent coordinates (`dynamics.StateLayout`: rotations as rotation vectors
+Jacobians live in tangent coordinates (`state.StateLayout`: rotations as rotation vectors
 in W); `PhiDynamics.linearize` maps them to state coordinates (quaternions) for a solver that
 differences states plainly, `PhiDynamics.linearize_tangent` returns them as they are.
 """
@@ -55,7 +55,8 @@ from drake_clutter.phi.colouring import (
     node_output_rows,
     node_rows,
 )
-from drake_clutter.phi.dynamics import ARM_DIM, ARM_NODE, NU, Phi, PhiSpec
+from drake_clutter.phi.dynamics import ARM_NODE, Phi, PhiSpec
+from drake_clutter.phi.state import ARM_DIM, NU
 from drake_clutter.phi.workers import WorkerPool
 
 

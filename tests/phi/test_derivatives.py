@@ -12,16 +12,9 @@ from drake_clutter.common.config import DynamicsConfig
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import colour_groups, components, dense_jacobians, node_columns
 from drake_clutter.phi.derivatives import PhiDynamics, differentiated_knots, interpolate_between
-from drake_clutter.phi.dynamics import (
-    ARM_DIM,
-    ARM_NODE,
-    Phi,
-    StateLayout,
-    initial_state,
-    make_spec,
-    scene_box_states,
-)
+from drake_clutter.phi.dynamics import ARM_NODE, Phi, initial_state, make_spec
 from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.state import ARM_DIM, StateLayout, scene_box_states
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.scene.generators import generate_scene
 from drake_clutter.testing.reach_paths import straight_reach

@@ -8,17 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig, load_config
-from drake_clutter.phi.dynamics import (
-    ARM_DIM,
-    GRAVITY,
-    Phi,
-    StateLayout,
-    initial_state,
-    make_spec,
-    pose_to_box_state,
-    scene_box_states,
-)
+from drake_clutter.phi.dynamics import GRAVITY, Phi, initial_state, make_spec
 from drake_clutter.phi.pruning import make_pruned_spec, prune, swept_samples
+from drake_clutter.phi.state import ARM_DIM, StateLayout, pose_to_box_state, scene_box_states
 from drake_clutter.scene.generators import generate_scene
 from drake_clutter.testing.fidelity import phi_final
 from drake_clutter.testing.reach_paths import straight_reach

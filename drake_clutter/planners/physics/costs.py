@@ -8,7 +8,7 @@ controls. Weights and time windows (Table II) are applied by the caller from `Ph
 
 Conventions: joint vectors are TRAJECTORY_JOINTS rows (rad, and m for the gripper opening);
 positions in W (m); a rotation perturbation is a rotation vector dtheta in W,
-R' = exp([dtheta]x) R, matching `dynamics.StateLayout`.
+R' = exp([dtheta]x) R, matching `state.StateLayout`.
 
 Penetration (Table I) is not here: the baseline and the physics planner share one definition,
 `clearance.smooth_penetration` (linear in depth once touching, quadratic inside d_safe), and

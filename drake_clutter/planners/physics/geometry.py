@@ -8,7 +8,7 @@ boxes (W):
 * `ArmGeometry.contacts`: every arm-vs-obstacle pair (shelf part or box) closer than a distance,
   with the signed distance d (m) and its gradients: over the arm's 8 coordinates, and over the
   box's pose perturbation (dtheta, dp) (a rotation vector in W on the left, R' = exp([dtheta]x) R,
-  and a translation in W: `dynamics.StateLayout`'s tangent coordinates);
+  and a translation in W: `state.StateLayout`'s tangent coordinates);
 * `ArmGeometry.tool`: the tool frame's origin p_WG and z axis in W with their Jacobians over the
   arm's 8 coordinates.
 

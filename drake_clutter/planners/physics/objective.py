@@ -3,7 +3,7 @@
 Two problems share the Table I terms of `costs` and the distances of `geometry`:
 
 **The physics problem** (`PhysicsObjective`, Sec. V). iLQR's state z = [x, q_prev]: phi's state
-x (`dynamics.StateLayout`: the arm's configuration q^t at knot t, then 13 numbers per kept box)
+x (`state.StateLayout`: the arm's configuration q^t at knot t, then 13 numbers per kept box)
 augmented with the previous knot's arm configuration q^(t-1) (8), which c_acc needs; its
 tangent dz = [dx, dq_prev] (box rotations as rotation vectors in W). The control u_t = q^(t+1).
 Knot 0 (the start, fixed) to knot T = Delta; Table II's time windows, as we read them:
@@ -57,7 +57,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 
 from drake_clutter.common.config import PhysicsConfig
-from drake_clutter.phi.dynamics import ARM_DIM, BOX_TANGENT, StateLayout, box_state_to_pose
+from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, StateLayout, box_state_to_pose
 from drake_clutter.planners.clearance import smooth_penetration
 from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.costs import Term

@@ -64,7 +64,7 @@ import numpy as np
 
 from drake_clutter.common.config import Config, ConfigError
 from drake_clutter.phi.derivatives import check_derivative_method
-from drake_clutter.phi.dynamics import ARM_DIM
+from drake_clutter.phi.state import ARM_DIM
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline, spline_basis
 from drake_clutter.planners.physics.ensemble import check_ensemble, ensemble_scores

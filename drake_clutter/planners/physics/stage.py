@@ -15,15 +15,9 @@ import numpy as np
 
 from drake_clutter.common.config import Config
 from drake_clutter.phi.derivatives import PhiDynamics
-from drake_clutter.phi.dynamics import (
-    ARM_DIM,
-    BOX_TANGENT,
-    StateLayout,
-    initial_state,
-    make_spec,
-    scene_box_states,
-)
+from drake_clutter.phi.dynamics import initial_state, make_spec
 from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, StateLayout, scene_box_states
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import grasp_offset
 from drake_clutter.planners.physics.geometry import ArmGeometry

@@ -16,10 +16,10 @@ from scipy.spatial.transform import Rotation
 
 from drake_clutter.common.config import PhysicsConfig
 from drake_clutter.experiments.specs import load_spec
-from drake_clutter.phi.dynamics import (
+from drake_clutter.phi.dynamics import initial_state
+from drake_clutter.phi.state import (
     StateLayout,
     box_state_to_pose,
-    initial_state,
     pose_to_box_state,
     scene_box_states,
 )

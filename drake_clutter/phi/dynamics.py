@@ -202,8 +202,10 @@ class Phi:
                                   for n in ROBOT_JOINTS])
         self._box_q, self._box_v = self._box_indices()
         self._nq = self.plant.num_positions()  # v starts here in the discrete state
-        weights = [GRAVITY * spec.scene.box(n).mass for n in self.layout.box_names]
-        self._shelf_allowance = spec.config.shelf_force_allowance * np.array([0.0, *weights])
+        # N per node (the arm 0, then each kept box's weight)
+        self.weights = np.array([0.0, *(GRAVITY * spec.scene.box(n).mass
+                                        for n in self.layout.box_names)])
+        self._shelf_allowance = spec.config.shelf_force_allowance * self.weights
         self._geometry_nodes = self._map_geometry_to_nodes()
         self._contact_port = self.plant.get_contact_results_output_port()
         self.failures = 0

@@ -13,7 +13,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from drake_clutter.evaluation.judge import off_the_board, tilt_angle
-from drake_clutter.phi.dynamics import GRAVITY, Phi, initial_state, make_spec
+from drake_clutter.phi.dynamics import Phi, initial_state, make_spec
 from drake_clutter.phi.state import scene_box_states
 
 
@@ -45,7 +45,6 @@ def phi_final(scene, trajectory, config, settle: float, arm: str = "capsules",
     knot_time = float(np.diff(trajectory.times[:2])[0])
     spec = make_spec(scene, names, None, knot_time, config.dynamics, config.world, arm)
     phi = Phi(spec)
-    weights = np.array([GRAVITY * scene.box(n).mass for n in spec.layout.box_names])
     tic = time.perf_counter()
     x = phi.settle(initial_state(spec.layout, trajectory.q[0], scene_box_states(scene)))
     arm_peak, shelf_peak = 0.0, 0.0
@@ -54,7 +53,7 @@ def phi_final(scene, trajectory, config, settle: float, arm: str = "capsules",
             break
         x, f = phi.step_forces(x, u)
         arm_peak = max(arm_peak, float(np.nan_to_num(f[0])))
-        excess = np.nan_to_num(phi.shelf_forces[1:] - weights)
+        excess = np.nan_to_num(phi.shelf_forces[1:] - phi.weights[1:])
         shelf_peak = max(shelf_peak, float(excess.max(initial=0.0)))
     x = phi.settle(x, settle)
     seconds = time.perf_counter() - tic

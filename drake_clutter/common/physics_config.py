@@ -107,6 +107,10 @@ class PhysicsConfig:
     w_grp_open: float = 1.0
     # weight of c_dynamic in the Sec. V-A pre-processing (as w_static_hull), unitless; ours
     w_dynamic: float = 80.0
+    # weight of c_press, the arm's penetration into a box from above (0 = off), unitless; ours
+    w_press: float = 0.0
+    # up component of a contact normal (box to arm) beyond which the arm presses, unitless; ours
+    press_normal_z: float = 0.5
     # weight of c_match in the Sec. V-B post-processing, unitless; ours
     w_match: float = 1.0
     # weight of c_match_vel in the Sec. V-B post-processing, unitless; ours

@@ -12,7 +12,7 @@ R' = exp([dtheta]x) R, matching `state.StateLayout`.
 
 Penetration (Table I) is not here: the baseline and the physics planner share one definition,
 `clearance.smooth_penetration` (linear in depth once touching, quadratic inside d_safe), and
-`objective.penetration_term` chains it onto distance Jacobians.
+`penetration.penetration_term` chains it onto distance Jacobians.
 
 The upright and gripper-horizontal angles acos(c) have an infinite gradient at 0 (a cone at the
 optimum); they are smoothed as sqrt(theta^2 + eps^2) - eps with eps = `ANGLE_SMOOTHING`, equal
@@ -39,6 +39,15 @@ class Term:
     def scaled(self, weight: float) -> Term:
         """The term times ``weight``."""
         return Term(weight * self.value, weight * self.gradient, weight * self.hessian)
+
+    def plus(self, other: Term, weight: float = 1.0) -> Term:
+        """This term plus ``weight`` times ``other`` (over the same arguments)."""
+        return Term(self.value + weight * other.value, self.gradient + weight * other.gradient,
+                    self.hessian + weight * other.hessian)
+
+    def pulled(self, S: np.ndarray) -> Term:
+        """This term, over y = S w, as a term over w (S constant)."""
+        return Term(self.value, S.T @ self.gradient, S.T @ self.hessian @ S)
 
 
 def _quadratic(residual: np.ndarray, jacobian: np.ndarray) -> Term:

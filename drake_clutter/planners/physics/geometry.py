@@ -36,12 +36,14 @@ SWEEP_REACH = 0.15  # m, how far from its body origin an arm geometry reaches (t
 @dataclass(frozen=True)
 class Contact:
     """One arm-vs-obstacle pair: signed distance d (m), dd/dq over the arm's 8 coordinates,
-    the obstacle (``SHELF`` or a box name) and, for a box, dd/d(dtheta, dp) (6,)."""
+    the obstacle (``SHELF`` or a box name), for a box dd/d(dtheta, dp) (6,), and the unit
+    normal from the obstacle to the arm (W)."""
 
     distance: float
     d_dq: np.ndarray
     obstacle: str
     d_dbox: np.ndarray | None
+    normal: np.ndarray
 
 
 class ArmGeometry:
@@ -119,11 +121,11 @@ class ArmGeometry:
             X_BG.multiply(p_arm), self.plant.world_frame(), self.plant.world_frame())
         d_dq = n @ J[:, self._robot_q] @ self._dq_robot
         if box is None:
-            return Contact(float(distance), d_dq, SHELF, None)
+            return Contact(float(distance), d_dq, SHELF, None, n)
         name, X_BoxG = box
         X_WB = self._poses[name]
         r = X_WB.rotation().multiply(X_BoxG.multiply(p_other))  # witness point from p_WB, in W
-        return Contact(float(distance), d_dq, name, np.concatenate([-np.cross(r, n), -n]))
+        return Contact(float(distance), d_dq, name, np.concatenate([-np.cross(r, n), -n]), n)
 
     def sweep(self, q_a, q_b, pieces: int = 4, reach: float = SWEEP_REACH) -> float:
         """A bound (m) on how far any arm point travels as the arm moves linearly in joint

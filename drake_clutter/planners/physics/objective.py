@@ -11,6 +11,7 @@ Knot 0 (the start, fixed) to knot T = Delta; Table II's time windows, as we read
 * per knot t = 1..T, on the state z_t (the arm at q^t, the boxes where phi put them):
   c_static (arm vs shelf, "t <= Delta"), c_motion, c_upright ("all": every knot of the plan;
   the boxes' motion after Delta is not simulated by the planner), c_force as a proxy (below);
+  ours, with w_press > 0: c_press (the arm over a kept or frozen box's top, at phi's poses);
 * per interval t = 0..T-1, on (z_t, u_t): c_acc over (q^(t-1), q^t, q^(t+1)); at t = 0
   q^(-1) = q^0 (the arm starts at rest); c_force from phi's forces of that knot ("all");
 * terminal, on z_T: c_grasp (tool frame to the target's centre), c_grp_horiz, c_grp_open.
@@ -30,11 +31,8 @@ Gauss-Newton expansion is w (Fx, Fu)^T f and w (Fx, Fu)^T (Fx, Fu). Without a so
 (``PhysicsConfig.force_source`` "proxy", or no phi) it is a penetration proxy on the knot's
 state: for every arm-vs-box pair in contact f = k (-d), k = ``force_stiffness``.
 
-Penetration (c_static, c_static_hull, c_dynamic) is `clearance.smooth_penetration` of the
-signed distance (linear beyond contact, quadratic inside d_safe), one function for both
-planners; its Hessian here is the Gauss-Newton (1/d_safe) J'J of the quadratic part, kept
-beyond contact too (the linear part has none, and iLQR needs curvature to take a step).
-Optional in the phi stages (`PhysicsConfig.w_static_deep`, ``phi_static_substeps``; off by
+Penetration (c_static, c_static_hull, c_dynamic, and ours, c_press: the arm over a box's top)
+is `penetration`'s. Optional in the phi stages (`PhysicsConfig.w_static_deep`, ``phi_static_substeps``; off by
 default): a steep part 1/2 (depth - static_depth)^2 (`deep_penetration_term`) and c_static as
 the mean over configurations between q^(t-1) (z's tail) and q^t.
 
@@ -51,103 +49,29 @@ Every `terms` value is weighted (Table II / `PhysicsConfig`); `quadratize` retur
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 from pydrake.math import RigidTransform
 
 from drake_clutter.common.config import PhysicsConfig
 from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, StateLayout, box_state_to_pose
-from drake_clutter.planners.clearance import smooth_penetration
 from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.costs import Term
 from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry, Contact
+from drake_clutter.planners.physics.penetration import (
+    distance_row,
+    deep_penetration_term,
+    penetration_term,
+    press_term,
+    segment_penetration,
+)
 from drake_clutter.robot import pr2
 from drake_clutter.solvers.ilqr import Expansion
 
 OPEN = pr2.GRIPPER_MAX_OPENING  # m, c_grp_open's q_gripper_open
 
 
-# ----------------------------------------------------------------------------- penetration
-
-
-def penetration_term(contacts: list[Contact], d_safe: float, columns: int,
-                     box_columns: dict[str, int] | None = None) -> Term:
-    """sum over ``contacts`` of smooth_penetration(d_safe - d) as a Term over ``columns``
-    numbers: the arm's 8 first, a box's (dtheta, dp) at ``box_columns[name]`` when given."""
-    value, grad, hess = 0.0, np.zeros(columns), np.zeros((columns, columns))
-    for c in contacts:
-        if c.distance >= d_safe:
-            continue
-        v, slope = smooth_penetration(d_safe - c.distance, d_safe)
-        J = _distance_row(c, columns, box_columns)
-        value += v
-        grad -= slope * J
-        hess += np.outer(J, J) / d_safe
-    return Term(value, grad, hess)
-
-
-def deep_penetration_term(contacts: list[Contact], depth: float, columns: int) -> Term:
-    """sum over ``contacts`` of 1/2 (-d - depth)^2 where the arm sinks deeper than ``depth``
-    (m) into the obstacle: the phi stages' steep part of c_static (Gauss-Newton Hessian J'J,
-    exact beyond ``depth``), as a Term over ``columns`` numbers (the arm's 8 first)."""
-    value, grad, hess = 0.0, np.zeros(columns), np.zeros((columns, columns))
-    for c in contacts:
-        excess = -c.distance - depth
-        if excess <= 0.0:
-            continue
-        J = _distance_row(c, columns, None)
-        value += 0.5 * excess * excess
-        grad -= excess * J
-        hess += np.outer(J, J)
-    return Term(value, grad, hess)
-
-
-def _distance_row(c: Contact, columns: int, box_columns: dict[str, int] | None) -> np.ndarray:
-    J = np.zeros(columns)
-    J[:ARM_DIM] = c.d_dq
-    if box_columns and c.d_dbox is not None and c.obstacle in box_columns:
-        start = box_columns[c.obstacle]
-        J[start:start + 6] = c.d_dbox
-    return J
-
-
-def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: float,
-                        exclude: tuple[str, ...] = (), shelf_only: bool = False,
-                        deep: tuple[float, float] = (0.0, 0.0),
-                        spacing: float = 0.0) -> dict[str, Term]:
-    """Mean over ``substeps`` configurations on the segment (q_a, q_b] of the penetration of
-    the arm and the shelf ("shelf") and of the arm and the boxes but ``exclude`` ("boxes"),
-    boxes fixed, each a Term over (q_a, q_b) (16,): the baseline's approximation of a link's
-    convex hull between two knots (c_static_hull, c_dynamic; c_static with ``shelf_only``,
-    which skips the boxes' distances). ``deep`` = (weight, depth): the shelf part adds weight
-    x `deep_penetration_term` (depth, m). One distance query per configuration serves both.
-    ``spacing`` (m) > 0 raises the count so that no arm point travels more than about that
-    between samples (`ArmGeometry.sweep`): a fast segment cannot carry a finger through the
-    board unseen. The count is held fixed in the derivatives."""
-    if spacing > 0.0:
-        substeps = max(substeps, math.ceil(geometry.sweep(q_a, q_b) / spacing))
-    zero = Term(0.0, np.zeros(2 * ARM_DIM), np.zeros((2 * ARM_DIM, 2 * ARM_DIM)))
-    out = {"shelf": zero, "boxes": zero}
-    for k in range(1, substeps + 1):
-        lam = k / substeps
-        q = (1 - lam) * np.asarray(q_a) + lam * np.asarray(q_b)
-        found = geometry.contacts(q, None, d_safe, "shelf" if shelf_only else "all")
-        found = [c for c in found if c.obstacle not in exclude]
-        S = np.hstack([(1 - lam) * np.eye(ARM_DIM), lam * np.eye(ARM_DIM)])
-        for kind in out:
-            part = [c for c in found if (c.obstacle == SHELF) == (kind == "shelf")]
-            term = penetration_term(part, d_safe, ARM_DIM)
-            if kind == "shelf" and deep[0] > 0.0:
-                term = _add(term, deep_penetration_term(part, deep[1], ARM_DIM), deep[0])
-            if term.value != 0.0:
-                out[kind] = _add(out[kind], _pull(term, S), 1.0 / substeps)
-    return out
-
-
-def _add(a: Term, b: Term, weight: float = 1.0) -> Term:
-    return Term(a.value + weight * b.value, a.gradient + weight * b.gradient,
-                a.hessian + weight * b.hessian)
+# ----------------------------------------------------------------------------- distances
 
 
 def grasp_distance(p_tool_W: np.ndarray, dp_dq: np.ndarray, p_target_W: np.ndarray,
@@ -249,6 +173,10 @@ class PhysicsObjective:
         cfg, q = self.config, z[:ARM_DIM]
         contacts = self.geometry.contacts(q, self.box_poses(z), self.d_safe)
         out = {"static": self._static(z, contacts)}
+        if cfg.w_press > 0.0:
+            boxes = [c for c in contacts if c.obstacle not in self.force_exclude]
+            out["press"] = press_term(boxes, self.d_safe, self.nz,
+                                      cfg.press_normal_z).scaled(cfg.w_press)
         if self.forces is None:
             out["force"] = self._force(contacts).scaled(cfg.w_force)
         out.update(self._box_terms(z))
@@ -284,7 +212,7 @@ class PhysicsObjective:
             shelf = self.static_geometry.contacts(z[:ARM_DIM], None, self.d_safe, "shelf")
         static = penetration_term(shelf, self.d_safe, self.nz)
         if deep[0] > 0.0:
-            static = _add(static, deep_penetration_term(shelf, deep[1], self.nz), deep[0])
+            static = static.plus(deep_penetration_term(shelf, deep[1], self.nz), deep[0])
         return static.scaled(cfg.w_static)
 
     def _force(self, contacts: list[Contact]) -> Term:
@@ -294,7 +222,7 @@ class PhysicsObjective:
             return Term(0.0, np.zeros(self.nz), np.zeros((self.nz, self.nz)))
         k = self.config.force_stiffness
         forces = np.array([-k * c.distance for c in touching])
-        J = np.array([-k * _distance_row(c, self.nz, self.box_columns) for c in touching])
+        J = np.array([-k * distance_row(c, self.nz, self.box_columns) for c in touching])
         return costs.force(forces, J)
 
     def _box_terms(self, z: np.ndarray) -> dict[str, Term]:
@@ -305,11 +233,11 @@ class PhysicsObjective:
         for i, b in enumerate(boxes):
             start = ARM_DIM + BOX_TANGENT * i
             m = costs.motion(b[4:7], self.p_start[i])
-            motion = _add(motion, _embed(m, [start + 3, start + 4, start + 5], nz))
+            motion = motion.plus(_embed(m, [start + 3, start + 4, start + 5], nz))
             u = costs.upright(box_state_to_pose(b).rotation().matrix(), gauss_newton=True,
                               majorize=self.config.distance_curvature == "majorizer",
                               tilt=self.config.upright_curvature == "tilt")
-            upright = _add(upright, _embed(u, [start, start + 1, start + 2], nz))
+            upright = upright.plus(_embed(u, [start, start + 1, start + 2], nz))
         return {"motion": motion.scaled(self.config.w_motion),
                 "upright": upright.scaled(self.config.w_upright)}
 
@@ -338,8 +266,8 @@ class PhysicsObjective:
             hessian[:3, :3] = kept * u.hessian
             on_board = Term(u.value * kept, np.r_[kept * u.gradient, -u.value * f.gradient],
                             hessian)
-            upright = _add(upright, _embed(on_board, list(range(start, start + 6)), nz))
-            fall = _add(fall, _embed(f, [start + 3, start + 4, start + 5], nz))
+            upright = upright.plus(_embed(on_board, list(range(start, start + 6)), nz))
+            fall = fall.plus(_embed(f, [start + 3, start + 4, start + 5], nz))
         return {"settled_upright": upright.scaled(cfg.w_settled_upright),
                 "settled_fall": fall.scaled(cfg.w_settled_fall)}
 
@@ -394,7 +322,7 @@ class PhysicsObjective:
             acc = Term(acc.value, acc.gradient, acc.hessian + metric * smooth)
         speed = speed_limit(z[:ARM_DIM], u, self._max_step)
         speed = _embed(speed, list(range(ARM_DIM)) + cols[2 * ARM_DIM:], self.nz + ARM_DIM)
-        return _add(acc, speed, self.config.w_speed)
+        return acc.plus(speed, self.config.w_speed)
 
     # -- the ilqr.Cost protocol
 
@@ -488,7 +416,7 @@ class KinematicObjective:
     """Sec. V-A / V-B objectives over the state q^t (8) and control q^(t+1), boxes fixed.
 
     ``mode`` "pre": w_static_hull c_static_hull + w_dynamic c_dynamic (not the target) + w_vel
-    c_vel per interval, c_grasp to ``p_pregrasp`` and c_grp_horiz at the end, their Table II
+    c_vel (+ w_press c_press, every box, if w_press > 0) per interval, c_grasp to ``p_pregrasp`` and c_grp_horiz at the end, their Table II
     weights times ``pre_terminal_weight`` (they stand in for the baseline's hard constraint).
     ``mode`` "post": w_static c_static (the mean over ``post_substeps`` configurations of
     the interval up to q^(t+1)) + w_match c_match + w_match_vel c_match_vel
@@ -511,18 +439,23 @@ class KinematicObjective:
         """Weighted Terms over (q, u) (16,) of interval t."""
         cfg, eye = self.config, np.eye(ARM_DIM)
         if self.mode == "pre":
+            press_z = cfg.press_normal_z if cfg.w_press > 0.0 else None
             hull = segment_penetration(self.geometry, q, u, cfg.hull_substeps, self.d_safe,
-                                       (self.target,), spacing=cfg.sweep_spacing)
-            return {"static_hull": hull["shelf"].scaled(self.w_static_hull),
-                    "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
-                    "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
+                                       (self.target,), spacing=cfg.sweep_spacing,
+                                       press_z=press_z)
+            out = {"static_hull": hull["shelf"].scaled(self.w_static_hull),
+                   "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
+                   "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
+            if press_z is not None:
+                out["press"] = hull["press"].scaled(cfg.w_press)
+            return out
         static = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
                                      shelf_only=True, spacing=cfg.sweep_spacing)["shelf"]
         on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
         match = costs.match(u, self.q_ref[t + 1])
         mvel = costs.match_velocity(u, q, self.q_ref[t + 1], self.q_ref[t])
         return {"static": static.scaled(cfg.w_static),
-                "match": _pull(match, on_u).scaled(cfg.w_match),
+                "match": match.pulled(on_u).scaled(cfg.w_match),
                 "match_vel": _reorder(mvel).scaled(cfg.w_match_vel),
                 "speed": speed_limit(q, u, self._max_step).scaled(cfg.w_speed)}
 
@@ -572,8 +505,3 @@ def _reorder(term: Term) -> Term:
     n = len(term.gradient) // 2
     p = np.r_[np.arange(n, 2 * n), np.arange(n)]
     return Term(term.value, term.gradient[p], term.hessian[np.ix_(p, p)])
-
-
-def _pull(term: Term, S: np.ndarray) -> Term:
-    """A Term over y = S w as one over w (S constant)."""
-    return Term(term.value, S.T @ term.gradient, S.T @ term.hessian @ S)

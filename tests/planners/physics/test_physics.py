@@ -25,10 +25,11 @@ from drake_clutter.phi.state import (
 )
 from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry
-from drake_clutter.planners.physics.objective import (
-    KinematicObjective,
-    PhysicsObjective,
+from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective
+from drake_clutter.planners.physics.penetration import (
     deep_penetration_term,
+    press_term,
+    pressing,
     segment_penetration,
 )
 from drake_clutter.scene import scenes
@@ -138,6 +139,30 @@ def test_deep_static_term_grows_beyond_its_depth_and_its_gradient_matches(geomet
     np.testing.assert_allclose(term.gradient, numeric, atol=1e-6)
     assert np.all(np.linalg.eigvalsh(term.hessian) > -1e-12)
     assert deep_penetration_term(contacts, 0.05, 8).value == 0.0  # nothing that deep
+
+
+def test_press_term_picks_the_arm_over_a_box_top_and_its_gradient_matches(geometry):
+    """c_press: a wide box put under the gripper, its top 5 mm above the tool frame's origin,
+    is touched from above (normals up) and priced; the same box beside the gripper, its side
+    touched, is not; the gradient over the arm matches differences."""
+    q = Q_PREGRASP
+    p_G = geometry.tool(q)[0]
+    box = geometry.scene.box("large_stable")
+    top = p_G + [0.0, 0.0, 0.005 - box.size[2] / 2]
+    under = {box.name: RigidTransform(top)}
+    found = [c for c in geometry.contacts(q, under, 0.02, "boxes") if c.obstacle == box.name]
+    down = pressing(found, 0.5)
+    assert down and all(c.normal[2] > 0.5 for c in down)
+    term = press_term(found, 0.02, 8, 0.5)
+    assert term.value > 0.0
+    numeric = _numeric_gradient(
+        lambda v: press_term(geometry.contacts(v, under, 0.02, "boxes"), 0.02, 8, 0.5).value,
+        q)
+    np.testing.assert_allclose(term.gradient, numeric, atol=1e-4)
+    beside = {box.name: RigidTransform(p_G + [0.0, box.size[1] / 2 + 0.03, 0.0])}
+    side = geometry.contacts(q, beside, 0.02, "boxes")
+    assert [c for c in side if c.obstacle == box.name]  # touched, from the side
+    assert press_term([c for c in side if c.obstacle == box.name], 0.02, 8, 0.5).value == 0.0
 
 
 # ----------------------------------------------------------------------------- objective

@@ -114,3 +114,17 @@ def press_term(contacts: list[Contact], d_safe: float, columns: int, normal_z: f
     """c_press: `penetration_term` of the arm-box pairs of ``contacts`` that press down
     (`pressing`), over ``columns`` numbers (the arm's 8 first; the boxes' columns get none)."""
     return penetration_term(pressing(contacts, normal_z), d_safe, columns)
+
+
+def path_press(geometry: ArmGeometry, q: np.ndarray, substeps: int, normal_z: float) -> float:
+    """The deepest press over a path (m, 0 where none): the largest penetration of an
+    arm-box pair that presses down (`pressing`) over ``substeps`` configurations per knot
+    interval of ``q`` (knots, 8 each), the boxes where ``geometry`` last put them (at first
+    their resting poses). The judge's usual kinematic failure as a geometric check."""
+    q = np.asarray(q, dtype=float)
+    deepest = 0.0
+    for q_a, q_b in zip(q[:-1], q[1:], strict=True):
+        for lam in np.arange(1, substeps + 1) / substeps:
+            found = geometry.contacts((1 - lam) * q_a + lam * q_b, None, 0.0, "boxes")
+            deepest = max([deepest, *(-c.distance for c in pressing(found, normal_z))])
+    return deepest

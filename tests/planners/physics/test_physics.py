@@ -28,6 +28,7 @@ from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective
 from drake_clutter.planners.physics.penetration import (
     deep_penetration_term,
+    path_press,
     press_term,
     pressing,
     segment_penetration,
@@ -163,6 +164,12 @@ def test_press_term_picks_the_arm_over_a_box_top_and_its_gradient_matches(geomet
     side = geometry.contacts(q, beside, 0.02, "boxes")
     assert [c for c in side if c.obstacle == box.name]  # touched, from the side
     assert press_term([c for c in side if c.obstacle == box.name], 0.02, 8, 0.5).value == 0.0
+    geometry.set_state(q, under)
+    deepest = max(-c.distance for c in pressing(geometry.contacts(q, None, 0.0, "boxes"), 0.5))
+    assert path_press(geometry, np.array([q, q]), 2, 0.5) == pytest.approx(deepest)
+    geometry.set_state(q, beside)
+    assert path_press(geometry, np.array([q, q]), 2, 0.5) == 0.0
+    geometry.set_state(q, {box.name: geometry.rest_pose(box.name)})
 
 
 # ----------------------------------------------------------------------------- objective

@@ -111,6 +111,8 @@ class PhysicsConfig:
     w_press: float = 0.0
     # up component of a contact normal (box to arm) beyond which the arm presses, unitless; ours
     press_normal_z: float = 0.5
+    # the boxes' poses the phi stages' c_press reads ("phi": phi's; "start": at rest), choice; ours
+    press_poses: Literal["phi", "start"] = "start"
     # weight of c_match in the Sec. V-B post-processing, unitless; ours
     w_match: float = 1.0
     # weight of c_match_vel in the Sec. V-B post-processing, unitless; ours

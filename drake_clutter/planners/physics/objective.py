@@ -11,7 +11,8 @@ Knot 0 (the start, fixed) to knot T = Delta; Table II's time windows, as we read
 * per knot t = 1..T, on the state z_t (the arm at q^t, the boxes where phi put them):
   c_static (arm vs shelf, "t <= Delta"), c_motion, c_upright ("all": every knot of the plan;
   the boxes' motion after Delta is not simulated by the planner), c_force as a proxy (below);
-  ours, with w_press > 0: c_press (the arm over a kept or frozen box's top, at phi's poses);
+  ours, with w_press > 0: c_press (the arm over a box's top, the boxes where they started or
+  where phi put them: ``press_poses``);
 * per interval t = 0..T-1, on (z_t, u_t): c_acc over (q^(t-1), q^t, q^(t+1)); at t = 0
   q^(-1) = q^0 (the arm starts at rest); c_force from phi's forces of that knot ("all");
 * terminal, on z_T: c_grasp (tool frame to the target's centre), c_grp_horiz, c_grp_open.
@@ -32,9 +33,10 @@ Gauss-Newton expansion is w (Fx, Fu)^T f and w (Fx, Fu)^T (Fx, Fu). Without a so
 state: for every arm-vs-box pair in contact f = k (-d), k = ``force_stiffness``.
 
 Penetration (c_static, c_static_hull, c_dynamic, and ours, c_press: the arm over a box's top)
-is `penetration`'s. Optional in the phi stages (`PhysicsConfig.w_static_deep`, ``phi_static_substeps``; off by
-default): a steep part 1/2 (depth - static_depth)^2 (`deep_penetration_term`) and c_static as
-the mean over configurations between q^(t-1) (z's tail) and q^t.
+is `penetration`'s. Optional in the phi stages (`PhysicsConfig.w_static_deep`,
+``phi_static_substeps``; off by default): a steep part 1/2 (depth - static_depth)^2
+(`deep_penetration_term`) and c_static as the mean over configurations between q^(t-1) (z's
+tail) and q^t.
 
 **The kinematic problems** (`KinematicObjective`, Sec. V-A and V-B): the boxes held fixed, the
 state is q^t (8) and the control q^(t+1). Pre-processing: c_static_hull + c_dynamic (arm vs the
@@ -49,7 +51,6 @@ Every `terms` value is weighted (Table II / `PhysicsConfig`); `quadratize` retur
 
 from __future__ import annotations
 
-
 import numpy as np
 from pydrake.math import RigidTransform
 
@@ -59,8 +60,8 @@ from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.costs import Term
 from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry, Contact
 from drake_clutter.planners.physics.penetration import (
-    distance_row,
     deep_penetration_term,
+    distance_row,
     penetration_term,
     press_term,
     segment_penetration,
@@ -151,6 +152,8 @@ class PhysicsObjective:
         self.nx, self.ndx = layout.nx, layout.ndx
         self.nz = self.ndx + ARM_DIM
         self.p_start = layout.boxes(x0)[:, 4:7].copy()
+        self.start_poses = {n: box_state_to_pose(b)
+                            for n, b in zip(layout.box_names, layout.boxes(x0), strict=True)}
         self.target = target
         self.target_index = (layout.box_index(target) if target in layout.box_names else None)
         self.box_columns = {n: ARM_DIM + BOX_TANGENT * i
@@ -174,9 +177,7 @@ class PhysicsObjective:
         contacts = self.geometry.contacts(q, self.box_poses(z), self.d_safe)
         out = {"static": self._static(z, contacts)}
         if cfg.w_press > 0.0:
-            boxes = [c for c in contacts if c.obstacle not in self.force_exclude]
-            out["press"] = press_term(boxes, self.d_safe, self.nz,
-                                      cfg.press_normal_z).scaled(cfg.w_press)
+            out["press"] = self._press(z)
         if self.forces is None:
             out["force"] = self._force(contacts).scaled(cfg.w_force)
         out.update(self._box_terms(z))
@@ -214,6 +215,17 @@ class PhysicsObjective:
         if deep[0] > 0.0:
             static = static.plus(deep_penetration_term(shelf, deep[1], self.nz), deep[0])
         return static.scaled(cfg.w_static)
+
+    def _press(self, z: np.ndarray) -> Term:
+        """Weighted c_press over dz: the arm at z's q^t in ``static_geometry`` (default:
+        ``geometry``) against the boxes where phi put them, or with ``press_poses`` "start"
+        where they started (a box phi pushed aside may be where the judge's arm lands on it)."""
+        cfg = self.config
+        geometry = self.static_geometry or self.geometry
+        poses = self.start_poses if cfg.press_poses == "start" else self.box_poses(z)
+        contacts = geometry.contacts(z[:ARM_DIM], poses, self.d_safe, "boxes")
+        boxes = [c for c in contacts if c.obstacle not in self.force_exclude]
+        return press_term(boxes, self.d_safe, self.nz, cfg.press_normal_z).scaled(cfg.w_press)
 
     def _force(self, contacts: list[Contact]) -> Term:
         touching = [c for c in contacts if c.obstacle != SHELF and c.distance < 0.0
@@ -416,10 +428,12 @@ class KinematicObjective:
     """Sec. V-A / V-B objectives over the state q^t (8) and control q^(t+1), boxes fixed.
 
     ``mode`` "pre": w_static_hull c_static_hull + w_dynamic c_dynamic (not the target) + w_vel
-    c_vel (+ w_press c_press, every box, if w_press > 0) per interval, c_grasp to ``p_pregrasp`` and c_grp_horiz at the end, their Table II
+    c_vel (+ w_press c_press, every box, if w_press > 0) per interval, c_grasp to
+    ``p_pregrasp`` and c_grp_horiz at the end, their Table II
     weights times ``pre_terminal_weight`` (they stand in for the baseline's hard constraint).
     ``mode`` "post": w_static c_static (the mean over ``post_substeps`` configurations of
-    the interval up to q^(t+1)) + w_match c_match + w_match_vel c_match_vel
+    the interval up to q^(t+1); + w_press c_press on the same, boxes at rest, if w_press > 0)
+    + w_match c_match + w_match_vel c_match_vel
     against ``q_ref`` (T + 1, 8), + w_speed c_speed over knots ``knot_time`` (s) apart (ours:
     pushing the arm out of the shelf made fig5's plan exceed a joint speed limit, measured).
     """
@@ -438,8 +452,8 @@ class KinematicObjective:
     def running(self, t: int, q: np.ndarray, u: np.ndarray) -> dict[str, Term]:
         """Weighted Terms over (q, u) (16,) of interval t."""
         cfg, eye = self.config, np.eye(ARM_DIM)
+        press_z = cfg.press_normal_z if cfg.w_press > 0.0 else None
         if self.mode == "pre":
-            press_z = cfg.press_normal_z if cfg.w_press > 0.0 else None
             hull = segment_penetration(self.geometry, q, u, cfg.hull_substeps, self.d_safe,
                                        (self.target,), spacing=cfg.sweep_spacing,
                                        press_z=press_z)
@@ -449,15 +463,19 @@ class KinematicObjective:
             if press_z is not None:
                 out["press"] = hull["press"].scaled(cfg.w_press)
             return out
-        static = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
-                                     shelf_only=True, spacing=cfg.sweep_spacing)["shelf"]
+        swept = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
+                                    shelf_only=press_z is None, spacing=cfg.sweep_spacing,
+                                    press_z=press_z)
         on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
         match = costs.match(u, self.q_ref[t + 1])
         mvel = costs.match_velocity(u, q, self.q_ref[t + 1], self.q_ref[t])
-        return {"static": static.scaled(cfg.w_static),
-                "match": match.pulled(on_u).scaled(cfg.w_match),
-                "match_vel": _reorder(mvel).scaled(cfg.w_match_vel),
-                "speed": speed_limit(q, u, self._max_step).scaled(cfg.w_speed)}
+        out = {"static": swept["shelf"].scaled(cfg.w_static),
+               "match": match.pulled(on_u).scaled(cfg.w_match),
+               "match_vel": _reorder(mvel).scaled(cfg.w_match_vel),
+               "speed": speed_limit(q, u, self._max_step).scaled(cfg.w_speed)}
+        if press_z is not None:
+            out["press"] = swept["press"].scaled(cfg.w_press)
+        return out
 
     def terminal(self, q: np.ndarray) -> dict[str, Term]:
         """Weighted Terms over q (8,) at the last knot ("pre" only)."""

@@ -255,6 +255,34 @@ def test_state_terms_gradients_match_differences(physics_problem, terminal):
         assert np.all(eig > -1e-6 * scale), name  # Gauss-Newton: positive semi-definite
 
 
+def test_press_reads_phis_poses_or_the_start_poses(scene, geometry):
+    """c_press in the phi stages: a box phi has put under the gripper (its top 5 mm above G)
+    is pressed with "phi" poses, its gradient over the arm the numerical one; with "start"
+    poses the same state reads the box where it started, beside the arm: nothing."""
+    layout = StateLayout(("large_stable",))
+    states = scene_box_states(scene)
+    x0 = initial_state(layout, Q_PREGRASP, states)
+    p_G = geometry.tool(Q_PREGRASP)[0]
+    top = p_G + [0.0, 0.0, 0.005 - scene.box("large_stable").size[2] / 2]
+    under = dict(states, large_stable=pose_to_box_state(RigidTransform(top)))
+    z = np.concatenate([initial_state(layout, Q_PREGRASP, under), Q_PREGRASP])
+    values = {}
+    for poses in ("phi", "start"):
+        cfg = replace(PhysicsConfig(), w_press=1e3, press_poses=poses)
+        objective = PhysicsObjective(geometry, layout, cfg, x0, "target", knot_time=0.2,
+                                     d_safe=0.02)
+        term = objective.state_terms(z, False)["press"]
+        values[poses] = term.value
+        if poses == "phi":
+            numeric = _numeric_gradient(
+                lambda v, o=objective: o.state_terms(np.r_[v, z[8:]], False)["press"].value,
+                z[:8])
+            np.testing.assert_allclose(term.gradient[:8], numeric,
+                                       atol=1e-4 * np.abs(numeric).max())
+    geometry.set_state(Q_PREGRASP, {"large_stable": geometry.rest_pose("large_stable")})
+    assert values["phi"] > 0.0 and values["start"] == 0.0
+
+
 def test_static_between_knots_with_its_steep_part_matches_differences(scene, geometry):
     """The phi stages' c_static over the segment from q^(t-1) (z's tail) to q^t, with the
     steep part: its gradient over both knots is the numerical one, and the steep part adds to

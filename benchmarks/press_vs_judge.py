@@ -24,10 +24,12 @@ from __future__ import annotations
 import argparse
 import hashlib
 import sys
+from dataclasses import replace
 
 import numpy as np
 
-from drake_clutter.common.config import load_config
+from drake_clutter.common.config import ReportConfig, load_config
+from drake_clutter.experiments.paired import bootstrap_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store, StoreError
 from drake_clutter.planners.physics.geometry import ArmGeometry
@@ -66,21 +68,19 @@ def plans_with_replays(dbs: list[str], configurations: list[str]) -> list[dict]:
 def measure(plans: list[dict], variant: str, substeps: int, normal_z: float) -> None:
     """Adds each plan's deepest press (m) as ``press``, one planning world per scene."""
     config = load_config(None, [])
-    geometries: dict[str, ArmGeometry] = {}
+    scene, geometry = None, None
     for plan in sorted(plans, key=lambda p: p["scene"]):
-        if plan["scene"] not in geometries:
-            geometries.clear()  # one scene's world at a time
-            geometries[plan["scene"]] = ArmGeometry(stored_scene(plan["scene"], config),
-                                                    variant)
-        plan["press"] = path_press(geometries[plan["scene"]], plan["q"], substeps, normal_z)
+        if plan["scene"] != scene:  # one scene's world at a time
+            scene = plan["scene"]
+            geometry = ArmGeometry(stored_scene(scene, config), variant)
+        plan["press"] = path_press(geometry, plan["q"], substeps, normal_z)
 
 
-def mean_interval(values: np.ndarray, rng: np.random.Generator, n: int = 2000) -> str:
+def mean_interval(values: np.ndarray, seed: int) -> str:
     """'mean [lo, hi]': the mean and its 95 % bootstrap interval ('-' when empty)."""
     if len(values) == 0:
         return "-"
-    means = values[rng.integers(0, len(values), (n, len(values)))].mean(axis=1)
-    lo, hi = np.percentile(means, [2.5, 97.5])
+    lo, hi = bootstrap_interval(values, replace(ReportConfig(), bootstrap_seed=seed))
     return f"{values.mean():.2f} [{lo:.2f}, {hi:.2f}]"
 
 
@@ -95,7 +95,6 @@ def auc(score: np.ndarray, positive: np.ndarray) -> float:
 
 def report(plans: list[dict], label: str, seed: int) -> None:
     """Prints the press table of ``plans`` (module docstring)."""
-    rng = np.random.default_rng(seed)
     depth = np.array([p["press"] for p in plans])
     p_kf = np.array([p["p_kf"] for p in plans])
     p_success = np.array([p["p_success"] for p in plans])
@@ -106,8 +105,8 @@ def report(plans: list[dict], label: str, seed: int) -> None:
         press = depth > mm / 1000.0
         for name, mask in (("press", press), ("no press", ~press)):
             print(f"  over {mm:4.1f} mm {name:8} {int(mask.sum()):4d} plans: P(kinematic "
-                  f"failure) {mean_interval(p_kf[mask], rng)}, P(success) "
-                  f"{mean_interval(p_success[mask], rng)}")
+                  f"failure) {mean_interval(p_kf[mask], seed)}, P(success) "
+                  f"{mean_interval(p_success[mask], seed)}")
 
 
 def main(argv=None) -> int:

@@ -24,7 +24,7 @@ tipped or fallen); with ``--robust`` the stored robust judge's (its K replays' m
 then mean boxes tipped or fallen; rows without robust replays are left out); with
 ``--rejudge`` that of a fresh nominal Bullet replay under ``evaluation``.
 
-Besides the terms, each plan is graded in phi itself ('phi_class', `phi_class`): Sec. III's
+Besides the terms, each plan is graded in phi itself ('phi_class', `settled_class`): Sec. III's
 classes read on phi's boxes after the hold tail (a box tipped or off the board, the target in
 the last knot's pre-grasp zone), averaged over the members as the robust judge averages its
 replays - the surrogate of the judge's classes; 'phi_class_kf' also reads a kinematic failure
@@ -57,21 +57,20 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RotationMatrix
 from scipy.optimize import minimize
 from scipy.stats import binomtest
 
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import InputError
-from drake_clutter.evaluation.judge import evaluate, off_the_board, target_zone_reason
+from drake_clutter.evaluation.judge import evaluate
 from drake_clutter.evaluation.outcome import outcome_grade
 from drake_clutter.experiments.paired import row_grade, verdict
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store
 from drake_clutter.planners.physics.ensemble import member_rollouts, risk_score
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.grasp_height import settled_class
 from drake_clutter.trajectory import Trajectory
-from drake_clutter.worlds.drake_world import build_planning_world
 
 EVERY_BOX = 100.0  # m, a prune margin that keeps every box of a shelf dynamic in phi
 RISKS = ("mean", "mean_std", "cvar")
@@ -128,47 +127,22 @@ def _terms(plan: dict, members: int) -> list[dict | None]:
     return [m["terms"] if m else None for m in plan["members"][:members]]
 
 
-def phi_class(scene, world, q_last: np.ndarray, final: dict | None, config) -> float | None:
-    """The judge's grade read on phi's state after the hold tail, as one number: class (0
-    success, 1 partial success: a box tipped, 2 a box off the board or the target not in the
-    pre-grasp zone of the last knot's gripper) + 0.01 x boxes tipped or fallen; None where phi
-    failed. Kinematic failures (jams) are not read: phi's arm is never stopped."""
-    if final is None:
-        return None
-    names = list(final)
-    states = np.asarray([final[n] for n in names], float)
-    p = states[:, 4:7]
-    q = states[:, :4] / np.linalg.norm(states[:, :4], axis=1, keepdims=True)
-    x, y = q[:, 1], q[:, 2]
-    tilt = np.arccos(np.clip(1 - 2 * (x * x + y * y), -1, 1))  # angle of z_B from z_W
-    fallen = off_the_board(scene, p)
-    tipped = ~fallen & (tilt > config.evaluation.max_tilt)
-    context = world.plant.CreateDefaultContext()
-    world.set_robot_positions(context, world.robot_q(q_last[:7], q_last[7]))
-    X_WG = world.tool_frame.CalcPoseInWorld(context)
-    i = names.index(scene.target)
-    R_WT = RotationMatrix(Quaternion(q[i])).matrix()
-    R_WG = X_WG.rotation().matrix()
-    reason = target_zone_reason(R_WG.T @ (p[i] - X_WG.translation()), R_WG.T @ R_WT,
-                                scene.target_box.size, float(q_last[7]), config.evaluation)
-    others = [k for k, n in enumerate(names) if n != scene.target]
-    cls = 2 if fallen.any() or reason else 1 if tipped[others].any() else 0
-    return cls + 0.01 * int(fallen.sum() + tipped.sum())
-
-
 def add_phi_class(plans: list[dict], config) -> None:
-    """Adds 'phi_class' (`phi_class`) and 'phi_class_kf' to every priced member's entry:
-    the latter reads a kinematic failure (class 3) where c_force is at least one knot's worth
-    of a contact at the judge's shelf-force limit (w_force / 2 x max_static_force^2)."""
-    worlds = {}
-    for p in plans:
+    """Adds 'phi_class' (`grasp_height.settled_class`) and 'phi_class_kf' to every priced
+    member's entry: the latter reads a kinematic failure (class 3) where c_force is at least
+    one knot's worth of a contact at the judge's shelf-force limit (w_force / 2 x
+    max_static_force^2)."""
+    geometries = {}
+    for p in sorted(plans, key=lambda p: p["scene"]):
         scene = stored_scene(p["scene"], config)
-        world = worlds.setdefault(p["scene"], build_planning_world(scene, "capsules",
-                                                                   config.world))
+        if p["scene"] not in geometries:  # one scene's world at a time
+            geometries = {p["scene"]: ArmGeometry(scene, "capsules")}
+        geometry = geometries[p["scene"]]
         q_last = np.asarray(p["trajectory"].q[-1], float)
         for m in p["members"]:
             if m is not None:
-                m["phi_class"] = phi_class(scene, world, q_last, m["final"], config)
+                m["phi_class"] = settled_class(scene, geometry, q_last, m["final"],
+                                               config.evaluation)
                 m["phi_class_kf"] = _with_jams(m["phi_class"], m["terms"], config)
 
 

@@ -163,6 +163,8 @@ class PhysicsConfig:
     keep_open: bool = True
     # the plan is the best in one phi of the baseline, pre- and post-processed paths, flag; ours
     select_in_phi: bool = True
+    # grasp heights also tried per angle in phi's ensemble, of the target's height, unitless; ours
+    grasp_heights: tuple[float, ...] = ()
     # search before the phi stages ("none", or "sampling": see sampling.py), choice; ours
     search: Literal["none", "sampling"] = "none"
     # rounds of the sampling search (cross-entropy refits), count; ours

@@ -12,9 +12,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from drake_clutter.evaluation.judge import off_the_board, tilt_angle
 from drake_clutter.phi.dynamics import Phi, initial_state, make_spec
 from drake_clutter.phi.state import scene_box_states
+from drake_clutter.scene.grading import off_the_board, tilt_angle
 
 
 def classes(scene, p_WB: np.ndarray, tilts: np.ndarray, max_tilt: float) -> list[str]:

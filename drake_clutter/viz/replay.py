@@ -22,7 +22,7 @@ What moves (frames ``viz.fps`` per second, one timeline for all views):
 Colours: boxes as in the scene file (the target green in the shipped and generated scenes, as
 in the paper's figures); a box turns orange (``viz.tipped_rgba``) while it is tilted more than
 ``evaluation.max_tilt`` and red (``viz.fallen_rgba``) once its centre is off the board
-(`judge.tilt_angle`, `judge.off_the_board`: the judge's own tests), drawn as a
+(`scene.grading.tilt_angle`, `scene.grading.off_the_board`: the judge's own), drawn as a
 slightly larger overlay box that the animation shows and hides.
 """
 
@@ -47,9 +47,9 @@ from pydrake.math import RigidTransform, RotationMatrix
 from pydrake.systems.framework import DiagramBuilder
 
 from drake_clutter.common.config import Config
-from drake_clutter.evaluation.judge import off_the_board, tilt_angle
 from drake_clutter.evaluation.outcome import Outcome
 from drake_clutter.evaluation.recording import Recording
+from drake_clutter.scene.grading import off_the_board, tilt_angle
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, robot_positions
 from drake_clutter.worlds.drake_world import World, build_planning_world

@@ -19,19 +19,12 @@ import pytest
 
 from drake_clutter.cli import main
 from drake_clutter.common.config import ConfigError
-from drake_clutter.evaluation.judge import (
-    evaluate,
-    evaluate_candidates,
-    off_the_board,
-    plan_limit_violation,
-    target_zone_reason,
-    tilt_angle,
-    zone_extent,
-)
+from drake_clutter.evaluation.judge import evaluate, evaluate_candidates, plan_limit_violation
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS, Outcome, classify, scene_score
 from drake_clutter.evaluation.robust import perturbed_scene
 from drake_clutter.robot import pr2
 from drake_clutter.scene.generators import generate_scene
+from drake_clutter.scene.grading import off_the_board, target_zone_reason, tilt_angle, zone_extent
 from drake_clutter.scene.scenes import (
     RobotPlacement,
     Scene,

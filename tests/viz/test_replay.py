@@ -10,8 +10,9 @@ import pytest
 from pydrake.geometry import Meshcat
 
 from drake_clutter.common.config import Config
-from drake_clutter.evaluation.judge import evaluate, tilt_angle
+from drake_clutter.evaluation.judge import evaluate
 from drake_clutter.evaluation.recording import Recorder, Recording
+from drake_clutter.scene.grading import tilt_angle
 from drake_clutter.testing.handmade import (
     BOOKSHELF,
     CONFIG,

@@ -3,6 +3,10 @@ post-processing.
 
 Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `objective`):
 
+0. ``height`` (ours, ``physics.grasp_heights``; off when empty): the baseline is planned at
+   the same angle at each listed grasp height too, and the path whose state after the hold
+   tail phi's ensemble reads as the best class of the judge's becomes the start of every
+   stage below, and the "baseline" path of ``select`` (`grasp_height.choose_height`).
 1. ``pre`` (Sec. V-A): the kinematic arm alone, boxes held fixed where the scene puts them:
    c_static_hull + c_dynamic + c_vel, with c_grasp to the candidate's pre-grasp point and
    c_grp_horiz at the end instead of the baseline's terminal pose constraint. A kinematic iLQR
@@ -69,6 +73,7 @@ from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline, spline_basis
 from drake_clutter.planners.physics.ensemble import check_ensemble, ensemble_scores
 from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.grasp_height import choose_height
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
 from drake_clutter.planners.physics.sampling import check_search, sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
@@ -357,8 +362,15 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         return replace(candidate, planner="physics",
                        reason=f"no initialization: {candidate.reason or candidate.status}")
     cfg = config.physics
-    q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
+    if cfg.grasp_heights:
+        tic = time.perf_counter()
+        try:
+            candidate, details["grasp_height"] = choose_height(scene, candidate, config, pool)
+        except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep the start
+            details["grasp_height"] = {"error": str(exc)}
+        timings["height"] = time.perf_counter() - tic
+    q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV);
     # only c_approach reads it.
     approach = (ArmGeometry(scene, "capsules").tool_axis(baseline_q[-1], 0)[0]
@@ -441,6 +453,8 @@ def check_config(config: Config) -> None:
               ("sphere_iterations", cfg.sphere_iterations >= 0, "at least 0"),
               ("pre_iterations", cfg.pre_iterations >= 0, "at least 0"),
               ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
+              ("grasp_heights", all(0 < f <= 1 for f in cfg.grasp_heights),
+               "fractions of the target's height in (0, 1]"),
               ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
               ("post_substeps", cfg.post_substeps >= 1, "at least 1"),
               ("sweep_spacing", cfg.sweep_spacing >= 0.0, "non-negative (0 = off)"),

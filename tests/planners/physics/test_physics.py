@@ -1039,9 +1039,9 @@ def test_settled_terms_price_the_tail_end_once_as_the_judge_sees_it():
     domino tipped on the board after one held knot costs w_settled_upright x its tilt; fallen
     after five it costs w_settled_fall (its tumbling tilt no longer counts); the tail's
     gradient with them is the numerical one, with the box half off the board too."""
-    from drake_clutter.evaluation.judge import off_the_board
     from drake_clutter.phi.derivatives import PhiDynamics
     from drake_clutter.planners.physics.stage import HoldTail
+    from drake_clutter.scene.grading import off_the_board
 
     fig7, spec, zs, us = _toppling_domino()
     config = PhysicsConfig(w_settled_upright=6.0, w_settled_fall=30.0)

@@ -1,0 +1,67 @@
+"""The geometry of Sec. III's classes on a state of the scene: a box tilted or off the board,
+the target in the gripper's pre-grasp zone.
+
+The judge reads them on Bullet's state at the end of a replay (`evaluation.judge`); the physics
+planner reads the same definitions on phi's state to choose among its paths without the judge
+(`planners.physics.grasp_height`). Frames: W the world, G the tool frame; metres, radians.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drake_clutter.common.config import EvaluationConfig
+from drake_clutter.robot import pr2
+from drake_clutter.scene.scenes import Scene
+
+
+def tilt_angle(R_WB: np.ndarray) -> np.ndarray:
+    """Angle(s) (rad) between a box's z axis and W's z axis, R_WB of shape (..., 3, 3)."""
+    return np.arccos(np.clip(np.asarray(R_WB)[..., 2, 2], -1.0, 1.0))
+
+
+def off_the_board(scene: Scene, p_WB: np.ndarray) -> np.ndarray:
+    """True where a box centre (rows of p_WB, W) is outside the board's footprint or below its
+    top surface (Sec. III: "falls over the edge of the working surface")."""
+    shelf = scene.shelf
+    p = np.atleast_2d(p_WB)
+    cx, cy = shelf.center_xy
+    outside = (np.abs(p[:, 0] - cx) > shelf.depth / 2) | (np.abs(p[:, 1] - cy) > shelf.width / 2)
+    return outside | (p[:, 2] < shelf.top_height)
+
+
+def zone_extent(opening: float, config: EvaluationConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The pre-grasp zone as an axis-aligned box in the tool frame G: (centre, half extents), m.
+
+    Between the pads' inner faces (|y| < opening / 2), along the pads' length (x) extended by
+    ``zone_margin`` at both ends, and over the pads' height (z).
+    """
+    pad_x0 = pr2.PAD_CENTER_X - pr2.PAD_SIZE[0] / 2 - pr2.TOOL_OFFSET
+    pad_x1 = pad_x0 + pr2.PAD_SIZE[0]
+    x0, x1 = pad_x0 - config.zone_margin, pad_x1 + config.zone_margin
+    centre = np.array([(x0 + x1) / 2, 0.0, 0.0])
+    half = np.array([(x1 - x0) / 2, max(opening, 0.0) / 2, pr2.PAD_SIZE[2] / 2])
+    return centre, half
+
+
+def target_zone_reason(p_GT, R_GT, size, opening: float, config: EvaluationConfig) -> str:
+    """"" when a target box (centre p_GT, rotation R_GT in G, full size in m) sits in the
+    pre-grasp zone of a gripper open by ``opening`` m, else why not.
+
+    In the zone: its centre lies within the zone's x range; its extent across the gripper
+    (along y_G) fits between the pads (``fit_tolerance``); the pads' height lies within its
+    extent along z_G (so they would close on its sides, not above or below it).
+    """
+    p = np.asarray(p_GT, dtype=float)
+    reach = np.abs(np.asarray(R_GT)) @ (np.asarray(size, dtype=float) / 2)  # half extents in G
+    centre, half = zone_extent(opening, config)
+    tol = config.fit_tolerance
+    if abs(p[0] - centre[0]) > half[0]:
+        where = "ahead of" if p[0] > centre[0] else "behind"
+        return f"target centre {abs(p[0] - centre[0]) - half[0]:.3f} m {where} the pad zone"
+    if abs(p[1]) + reach[1] > opening / 2 + tol:
+        return (f"target does not fit between the pads (needs {abs(p[1]) + reach[1]:.3f} m "
+                f"of the {opening / 2:.3f} m half gap)")
+    if abs(p[2]) + half[2] > reach[2] + tol:
+        return f"pads not level with the target (height offset {p[2]:.3f} m)"
+    return ""

@@ -1,0 +1,111 @@
+"""Choosing the grasp height in phi's ensemble: the judge's classes read on a phi state, the
+choice among the baseline's paths at several heights, and the planner's record of it."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drake_clutter.common.config import Config, ConfigError, load_config
+from drake_clutter.planners.physics import grasp_height, pipeline
+from drake_clutter.planners.physics.ensemble import MemberRollout
+from drake_clutter.planners.physics.geometry import ArmGeometry
+
+
+@pytest.fixture(scope="module")
+def geometry(scene):
+    return ArmGeometry(scene, "capsules")
+
+
+def _state(quat_wxyz, p_W) -> np.ndarray:
+    """A 13-number box state at rest: quaternion wxyz, position, zero velocities."""
+    return np.concatenate([quat_wxyz, p_W, np.zeros(6)])
+
+
+def _rest(scene, name: str) -> np.ndarray:
+    return _state(*np.split(grasp_height._rest_state(scene, name), [4]))
+
+
+def test_settled_class_reads_the_judges_classes_on_a_state(scene, geometry, baseline_path):
+    q_last = baseline_path[-1]  # the pre-grasp pose: the target between the open fingers
+    evaluation = Config().evaluation
+    at_rest = {b.name: _rest(scene, b.name) for b in scene.boxes}
+    assert grasp_height.settled_class(scene, geometry, q_last, at_rest, evaluation) == 0.0
+    # Boxes phi held frozen are where the scene put them.
+    assert grasp_height.settled_class(scene, geometry, q_last, {}, evaluation) == 0.0
+    pushed = dict(at_rest, target=at_rest["target"] + np.r_[0, 0, 0, 0, 0.10, 0, 0, [0] * 6])
+    assert grasp_height.settled_class(scene, geometry, q_last, pushed, evaluation) == 2.0
+    on_its_side = np.array([np.cos(np.pi / 4), np.sin(np.pi / 4), 0.0, 0.0])  # 90 deg about x
+    tipped = dict(at_rest, small_tippy=_state(on_its_side, at_rest["small_tippy"][4:7]))
+    assert grasp_height.settled_class(scene, geometry, q_last, tipped, evaluation) == 1.01
+    fallen = dict(at_rest, box_far_left=_state([1, 0, 0, 0], [0.0, 0.0, 0.2]))
+    assert grasp_height.settled_class(scene, geometry, q_last, fallen, evaluation) == 2.01
+    closed = np.r_[q_last[:7], 0.0]  # the closed gripper cannot hold the target between pads
+    assert grasp_height.settled_class(scene, geometry, closed, at_rest, evaluation) == 2.0
+    assert grasp_height.settled_class(scene, geometry, q_last, None, evaluation) is None
+
+
+def _stub_rollouts(classes_by_height, monkeypatch):
+    """member_rollouts without phi, and settled_class by the path's grasp height (m)."""
+    monkeypatch.setattr(grasp_height, "member_rollouts",
+                        lambda scene, paths, *args: {n: MemberRollout({}, {}) for n in paths})
+
+    def by_height(scene, geometry, q_last, final, evaluation):
+        height = geometry.tool_jacobian(q_last)[0].translation()[2] - scene.shelf.top_height
+        return classes_by_height(height)
+
+    monkeypatch.setattr(grasp_height, "settled_class", by_height)
+
+
+def test_the_lowest_mean_class_wins_and_ties_keep_the_start(scene, monkeypatch):
+    from drake_clutter.planners.baseline import plan_baseline
+
+    config = load_config(None, ["physics.grasp_heights=[0.7, 0.9]", "ensemble.members=2"])
+    (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
+    _stub_rollouts(lambda h: 1.0, monkeypatch)  # every height alike: the start stays
+    chosen, record = grasp_height.choose_height(scene, start, config)
+    assert chosen is start and record["chosen"] == "0.5"
+    heights = [record["candidates"][f]["height"] for f in ("0.5", "0.7", "0.9")]
+    assert heights == sorted(heights) and heights[0] == start.details["height"]
+    assert all(record["candidates"][f]["classes"] == [1.0, 1.0] for f in ("0.5", "0.7"))
+    _stub_rollouts(lambda h: 0.0 if h > heights[1] - 0.005 else 2.0, monkeypatch)
+    chosen, record = grasp_height.choose_height(scene, start, config)
+    assert record["chosen"] == "0.7"  # 0.7 and 0.9 tie at 0: the earlier listed
+    assert chosen.details["height"] == pytest.approx(heights[1])
+    assert chosen.alpha == start.alpha and chosen.ok
+
+
+def test_the_planner_starts_from_the_chosen_height_in_phi(scene, fig5_heights):
+    candidate, config = fig5_heights
+    record = candidate.details["grasp_height"]
+    means = {f: np.mean(r["classes"]) for f, r in record["candidates"].items()}
+    assert set(means) == {"0.5", "0.9"}
+    assert means[record["chosen"]] == min(means.values())
+    if means["0.5"] == means["0.9"]:
+        assert record["chosen"] == "0.5"
+    # No stage changes the path: the plan is the chosen height's baseline path.
+    tool_z = ArmGeometry(scene, "capsules").tool(candidate.trajectory.q[-1])[0][2]
+    height = record["candidates"][record["chosen"]]["height"]
+    assert tool_z - scene.shelf.top_height == pytest.approx(height, abs=2e-3)
+    assert candidate.timings["height"] > 0
+
+
+@pytest.fixture(scope="module")
+def fig5_heights(scene):
+    from drake_clutter.planners.baseline import plan_baseline
+
+    config = load_config(None, ["physics.grasp_heights=[0.9]", "physics.iterations=0",
+                                "physics.pre_iterations=0", "physics.post_iterations=0",
+                                "dynamics.workers=0"])
+    (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
+    return pipeline.optimise_candidate(scene, start, config), config
+
+
+@pytest.mark.parametrize("fractions", [[0.0], [1.2], [0.6, -0.1]])
+def test_grasp_heights_must_be_fractions_of_the_target(fractions):
+    config = Config()
+    config = replace(config, physics=replace(config.physics, grasp_heights=tuple(fractions)))
+    with pytest.raises(ConfigError, match="physics.grasp_heights"):
+        pipeline.check_config(config)

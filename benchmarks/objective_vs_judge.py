@@ -46,7 +46,6 @@ that scene's (leave one scene out). ``--cache`` keeps each priced plan
 from __future__ import annotations
 
 import argparse
-import hashlib
 import itertools
 import json
 import math
@@ -66,11 +65,10 @@ from drake_clutter.evaluation.judge import evaluate
 from drake_clutter.evaluation.outcome import outcome_grade
 from drake_clutter.experiments.paired import row_grade, verdict
 from drake_clutter.experiments.specs import stored_scene
-from drake_clutter.experiments.store import Store
+from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.physics.ensemble import member_rollouts, risk_score
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.grasp_height import settled_class
-from drake_clutter.trajectory import Trajectory
 
 EVERY_BOX = 100.0  # m, a prune margin that keeps every box of a shelf dynamic in phi
 RISKS = ("mean", "mean_std", "cvar")
@@ -85,28 +83,20 @@ def _robust_grade(row: dict) -> tuple[float, float] | None:
     return float(grades[:, 0].mean()), float(grades[:, 1].mean())
 
 
-def stored_plans(dbs: list[str], configurations: list[str], robust: bool) -> list[dict]:
+def distinct_plans(dbs: list[str], configurations: list[str], robust: bool) -> list[dict]:
     """One dict per distinct stored plan: scene, angle, trajectory, grade, p_success (robust
     rows) and the rows it came from ([(store, configuration, planner)])."""
     plans = {}
-    for db in dbs:
-        with Store(db, create=False) as store:
-            rows = store.rows()
-        for r in rows:
-            if (not (r["plan"] or {}).get("trajectory")
-                    or (configurations and r["config_name"] not in configurations)):
-                continue
-            grade = _robust_grade(r) if robust else row_grade(r)
-            if grade is None:
-                continue
-            trajectory = Trajectory.from_data(r["plan"]["trajectory"])
-            digest = hashlib.sha1(np.ascontiguousarray(trajectory.q).tobytes()).hexdigest()
-            key = (r["scene"], r["angle"], digest)
-            plan = plans.setdefault(key, {"scene": r["scene"], "angle": r["angle"],
-                                          "key": "|".join(map(str, key)),
-                                          "trajectory": trajectory, "grade": grade,
-                                          "p_success": r.get("p_success"), "rows": []})
-            plan["rows"].append((db, r["config_name"], r["planner"]))
+    for db, r, trajectory, digest in stored_plans(dbs, configurations):
+        grade = _robust_grade(r) if robust else row_grade(r)
+        if grade is None:
+            continue
+        key = (r["scene"], r["angle"], digest)
+        plan = plans.setdefault(key, {"scene": r["scene"], "angle": r["angle"],
+                                      "key": "|".join(map(str, key)),
+                                      "trajectory": trajectory, "grade": grade,
+                                      "p_success": r.get("p_success"), "rows": []})
+        plan["rows"].append((db, r["config_name"], r["planner"]))
     return list(plans.values())
 
 
@@ -397,7 +387,7 @@ def main(argv=None) -> int:
         return 2
     try:
         config = load_config(None, args.set)
-        plans = [p for p in stored_plans(args.db, args.configurations, args.robust)
+        plans = [p for p in distinct_plans(args.db, args.configurations, args.robust)
                  if not args.scenes or p["scene"] in args.scenes]
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -22,7 +22,6 @@ depth against the nominal replay's kinematic failure (0.5: a coin).
 from __future__ import annotations
 
 import argparse
-import hashlib
 import sys
 from dataclasses import replace
 
@@ -31,11 +30,10 @@ import numpy as np
 from drake_clutter.common.config import ReportConfig, load_config
 from drake_clutter.experiments.paired import bootstrap_interval
 from drake_clutter.experiments.specs import stored_scene
-from drake_clutter.experiments.store import Store, StoreError
+from drake_clutter.experiments.store import StoreError, stored_plans
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.penetration import path_press
 from drake_clutter.robot.pr2 import VARIANTS
-from drake_clutter.trajectory import Trajectory
 
 THRESHOLDS_MM = (0.5, 5.0, 20.0)  # press depths reported, mm
 KF = "kinematic_failure"
@@ -45,23 +43,16 @@ def plans_with_replays(dbs: list[str], configurations: list[str]) -> list[dict]:
     """One dict per distinct stored plan with robust replays: scene, planner, q (knots, 8),
     p_kf and p_success over its replays, nominal (its nominal replay's class)."""
     plans = {}
-    for db in dbs:
-        with Store(db, create=False) as store:
-            rows = store.rows()
-        for r in rows:
-            robust = (r.get("outcome") or {}).get("robust")
-            trajectory = (r.get("plan") or {}).get("trajectory")
-            if not robust or not trajectory or (configurations
-                                                and r["config_name"] not in configurations):
-                continue
-            q = Trajectory.from_data(trajectory).q
-            key = (r["scene"], hashlib.sha1(np.ascontiguousarray(q).tobytes()).hexdigest())
-            kinds = robust["kinds"]
-            plans.setdefault(key, {
-                "scene": r["scene"], "planner": r["planner"], "q": q,
-                "p_kf": float(np.mean([k == KF for k in kinds])),
-                "p_success": float(np.mean([k == "success" for k in kinds])),
-                "nominal": r["kind"]})
+    for _, r, trajectory, digest in stored_plans(dbs, configurations):
+        robust = (r.get("outcome") or {}).get("robust")
+        if not robust:
+            continue
+        kinds = robust["kinds"]
+        plans.setdefault((r["scene"], digest), {
+            "scene": r["scene"], "planner": r["planner"], "q": trajectory.q,
+            "p_kf": float(np.mean([k == KF for k in kinds])),
+            "p_success": float(np.mean([k == "success" for k in kinds])),
+            "nominal": r["kind"]})
     return list(plans.values())
 
 

@@ -28,12 +28,17 @@ has kind ``planner_failure`` with an empty ``error`` and is never retried.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import sqlite3
 import time
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
+import numpy as np
+
 from drake_clutter.common.typed_yaml import InputError
+from drake_clutter.trajectory import Trajectory
 
 SCHEMA_VERSION = "2"
 # Columns each older schema lacks, added (NULL in old rows) when such a store is opened.
@@ -209,3 +214,21 @@ class _Transaction:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         self.db.execute("COMMIT" if exc_type is None else "ROLLBACK")
+
+
+def stored_plans(dbs: Sequence[str], configurations: Sequence[str] = ()
+                 ) -> Iterator[tuple[str, dict, Trajectory, str]]:
+    """(store, row, trajectory, digest) for every row of the stores ``dbs`` that holds a
+    trajectory (only the rows of ``configurations`` when given), store by store in insertion
+    order; the digest is the SHA-1 of the knots (T + 1, 8): two rows with one digest hold the
+    same plan (the same baseline stored under two configurations, say)."""
+    for db in dbs:
+        with Store(db, create=False) as store:
+            rows = store.rows()
+        for row in rows:
+            data = (row["plan"] or {}).get("trajectory")
+            if not data or (configurations and row["config_name"] not in configurations):
+                continue
+            trajectory = Trajectory.from_data(data)
+            digest = hashlib.sha1(np.ascontiguousarray(trajectory.q).tobytes()).hexdigest()
+            yield db, row, trajectory, digest

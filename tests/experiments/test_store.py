@@ -177,3 +177,31 @@ def test_a_store_of_an_unknown_schema_stops_with_its_field(tmp_path):
     with pytest.raises(StoreError) as err:
         Store(path, create=False)
     assert err.value.field == "meta.schema" and "schema 9" in err.value.reason
+
+
+def test_stored_plans_reads_each_trajectory_with_a_digest_of_its_knots(tmp_path):
+    import numpy as np
+
+    from drake_clutter.experiments.store import stored_plans
+    from drake_clutter.trajectory import Trajectory
+
+    def plan(q0: float) -> dict:
+        q = np.full((3, 8), q0)
+        return {"status": "ok", "trajectory": Trajectory(np.arange(3.0), q).to_data()}
+
+    with Store(tmp_path / "a.db") as store:
+        store.put(_unit(angle=0), {**_ok(), "plan": plan(0.1)})
+        store.put(_unit(angle=1, planner="physics"), {**_ok(), "plan": plan(0.1)})
+        store.put(_unit(angle=2), {**_ok(), "plan": plan(0.2)})
+        store.put(_unit(angle=3), {**_ok("planner_failure"), "plan": {"status": "ik_failed"}})
+    with Store(tmp_path / "b.db") as store:
+        unit = {**_unit(angle=0), "config_name": "other"}
+        store.put(unit, {**_ok(), "plan": plan(0.1)})
+    dbs = [str(tmp_path / "a.db"), str(tmp_path / "b.db")]
+    found = list(stored_plans(dbs))
+    assert [(db[-4:], row["angle"]) for db, row, _, _ in found] == [
+        ("a.db", 0), ("a.db", 1), ("a.db", 2), ("b.db", 0)]  # the row without a plan: none
+    digests = [digest for *_, digest in found]
+    assert digests[0] == digests[1] == digests[3] != digests[2]
+    assert np.array_equal(found[2][2].q, np.full((3, 8), 0.2))
+    assert [row["angle"] for _, row, _, _ in stored_plans(dbs, ["other"])] == [0]

@@ -464,7 +464,7 @@ class KinematicObjective:
                 out["press"] = hull["press"].scaled(cfg.w_press)
             return out
         swept = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
-                                    shelf_only=press_z is None, spacing=cfg.sweep_spacing,
+                                    shelf_only=True, spacing=cfg.sweep_spacing,
                                     press_z=press_z)
         on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
         match = costs.match(u, self.q_ref[t + 1])

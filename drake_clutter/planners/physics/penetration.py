@@ -74,21 +74,23 @@ def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: 
     the arm and the shelf ("shelf") and of the arm and the boxes but ``exclude`` ("boxes"),
     boxes fixed, each a Term over (q_a, q_b) (16,): the baseline's approximation of a link's
     convex hull between two knots (c_static_hull, c_dynamic; c_static with ``shelf_only``,
-    which skips the boxes' distances). ``deep`` = (weight, depth): the shelf part adds weight
-    x `deep_penetration_term` (depth, m). With ``press_z``, "press": c_press over every box
+    which leaves "boxes" out). ``deep`` = (weight, depth): the shelf part adds weight x
+    `deep_penetration_term` (depth, m). With ``press_z``, "press": c_press over every box
     (``exclude`` too) whose normal's up component exceeds it. One distance query per
-    configuration serves them all.
+    configuration serves them all (the boxes' distances only when a part needs them).
     ``spacing`` (m) > 0 raises the count so that no arm point travels more than about that
     between samples (`ArmGeometry.sweep`): a fast segment cannot carry a finger through the
     board unseen. The count is held fixed in the derivatives."""
     if spacing > 0.0:
         substeps = max(substeps, math.ceil(geometry.sweep(q_a, q_b) / spacing))
     zero = Term(0.0, np.zeros(2 * ARM_DIM), np.zeros((2 * ARM_DIM, 2 * ARM_DIM)))
-    out = {"shelf": zero, "boxes": zero} | ({"press": zero} if press_z is not None else {})
+    out = ({"shelf": zero} | ({} if shelf_only else {"boxes": zero})
+           | ({"press": zero} if press_z is not None else {}))
+    obstacles = "shelf" if shelf_only and press_z is None else "all"
     for k in range(1, substeps + 1):
         lam = k / substeps
         q = (1 - lam) * np.asarray(q_a) + lam * np.asarray(q_b)
-        everything = geometry.contacts(q, None, d_safe, "shelf" if shelf_only else "all")
+        everything = geometry.contacts(q, None, d_safe, obstacles)
         found = [c for c in everything if c.obstacle not in exclude]
         S = np.hstack([(1 - lam) * np.eye(ARM_DIM), lam * np.eye(ARM_DIM)])
         for kind in out:

@@ -167,6 +167,11 @@ def test_press_term_picks_the_arm_over_a_box_top_and_its_gradient_matches(geomet
     geometry.set_state(q, under)
     deepest = max(-c.distance for c in pressing(geometry.contacts(q, None, 0.0, "boxes"), 0.5))
     assert path_press(geometry, np.array([q, q]), 2, 0.5) == pytest.approx(deepest)
+    # The segment's c_press reads the boxes whether or not it prices c_dynamic ("boxes").
+    both = segment_penetration(geometry, q, q, 2, 0.02, press_z=0.5)
+    lean = segment_penetration(geometry, q, q, 2, 0.02, shelf_only=True, press_z=0.5)
+    assert "boxes" not in lean and lean["press"].value == both["press"].value > 0.0
+    assert lean["shelf"].value == both["shelf"].value
     geometry.set_state(q, beside)
     assert path_press(geometry, np.array([q, q]), 2, 0.5) == 0.0
     geometry.set_state(q, {box.name: geometry.rest_pose(box.name)})

@@ -165,6 +165,12 @@ class PhysicsConfig:
     select_in_phi: bool = True
     # grasp heights also tried per angle in phi's ensemble, of the target's height, unitless; ours
     grasp_heights: tuple[float, ...] = ()
+    # grasp height chosen by the press check ("press") or phi's ensemble class ("phi"), choice; ours
+    height_choice: Literal["phi", "press"] = "press"
+    # deepest press (physics.press_normal_z) the "press" choice counts as none, m; ours
+    press_tolerance: float = 0.0005
+    # configurations per knot interval the press check reads, count; ours
+    press_substeps: int = 4
     # search before the phi stages ("none", or "sampling": see sampling.py), choice; ours
     search: Literal["none", "sampling"] = "none"
     # rounds of the sampling search (cross-entropy refits), count; ours

@@ -4,9 +4,10 @@ post-processing.
 Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `objective`):
 
 0. ``height`` (ours, ``physics.grasp_heights``; off when empty): the baseline is planned at
-   the same angle at each listed grasp height too, and the path whose state after the hold
-   tail phi's ensemble reads as the best class of the judge's becomes the start of every
-   stage below, and the "baseline" path of ``select`` (`grasp_height.choose_height`).
+   the same angle at each listed grasp height too, and the path chosen by
+   ``physics.height_choice`` (the press check, or the best class in phi's ensemble) becomes
+   the start of every stage below and the "baseline" path of ``select``
+   (`grasp_height.choose_height`).
 1. ``pre`` (Sec. V-A): the kinematic arm alone, boxes held fixed where the scene puts them:
    c_static_hull + c_dynamic + c_vel, with c_grasp to the candidate's pre-grasp point and
    c_grp_horiz at the end instead of the baseline's terminal pose constraint. A kinematic iLQR
@@ -455,6 +456,8 @@ def check_config(config: Config) -> None:
               ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
               ("grasp_heights", all(0 < f <= 1 for f in cfg.grasp_heights),
                "fractions of the target's height in (0, 1]"),
+              ("press_tolerance", cfg.press_tolerance >= 0, "non-negative"),
+              ("press_substeps", cfg.press_substeps >= 1, "at least 1"),
               ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
               ("post_substeps", cfg.post_substeps >= 1, "at least 1"),
               ("sweep_spacing", cfg.sweep_spacing >= 0.0, "non-negative (0 = off)"),

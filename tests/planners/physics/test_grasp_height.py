@@ -59,10 +59,12 @@ def _stub_rollouts(classes_by_height, monkeypatch):
     monkeypatch.setattr(grasp_height, "settled_class", by_height)
 
 
-def test_the_lowest_mean_class_wins_and_ties_keep_the_start(scene, monkeypatch):
+def test_the_phi_choice_takes_the_lowest_mean_class_and_ties_keep_the_start(scene,
+                                                                             monkeypatch):
     from drake_clutter.planners.baseline import plan_baseline
 
-    config = load_config(None, ["physics.grasp_heights=[0.7, 0.9]", "ensemble.members=2"])
+    config = load_config(None, ["physics.grasp_heights=[0.7, 0.9]", "ensemble.members=2",
+                                "physics.height_choice=phi"])
     (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
     _stub_rollouts(lambda h: 1.0, monkeypatch)  # every height alike: the start stays
     chosen, record = grasp_height.choose_height(scene, start, config)
@@ -96,11 +98,38 @@ def test_the_planner_starts_from_the_chosen_height_in_phi(scene, fig5_heights):
 def fig5_heights(scene):
     from drake_clutter.planners.baseline import plan_baseline
 
-    config = load_config(None, ["physics.grasp_heights=[0.9]", "physics.iterations=0",
+    config = load_config(None, ["physics.grasp_heights=[0.9]", "physics.height_choice=phi",
+                                "physics.iterations=0",
                                 "physics.pre_iterations=0", "physics.post_iterations=0",
                                 "dynamics.workers=0"])
     (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
     return pipeline.optimise_candidate(scene, start, config), config
+
+
+def test_the_press_choice_keeps_the_start_unless_it_presses_and_another_does_not(
+        scene, monkeypatch):
+    from drake_clutter.planners.baseline import plan_baseline
+
+    config = load_config(None, ["physics.grasp_heights=[0.7, 0.9]"])
+    assert config.physics.height_choice == "press"
+    (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
+    base = start.details["height"]
+
+    def stub(presses):  # path_press (m) by the path's grasp height above the start's
+        def path_press(geometry, q, substeps, normal_z):
+            h = geometry.tool(q[-1])[0][2] - scene.shelf.top_height
+            return presses(h - base)
+        monkeypatch.setattr(grasp_height, "path_press", path_press)
+
+    stub(lambda dh: 0.004)  # every height presses: the start
+    chosen, record = grasp_height.choose_height(scene, start, config)
+    assert chosen is start and record["rule"] == "press"
+    assert record["candidates"]["0.9"]["press"] == 0.004
+    stub(lambda dh: 0.0004)  # within press_tolerance: the start
+    assert grasp_height.choose_height(scene, start, config)[0] is start
+    stub(lambda dh: 0.004 if dh < 0.001 else 0.0)  # only the start presses: the next listed
+    chosen, record = grasp_height.choose_height(scene, start, config)
+    assert record["chosen"] == "0.7" and chosen.details["height"] > base
 
 
 @pytest.mark.parametrize("fractions", [[0.0], [1.2], [0.6, -0.1]])
@@ -108,4 +137,12 @@ def test_grasp_heights_must_be_fractions_of_the_target(fractions):
     config = Config()
     config = replace(config, physics=replace(config.physics, grasp_heights=tuple(fractions)))
     with pytest.raises(ConfigError, match="physics.grasp_heights"):
+        pipeline.check_config(config)
+
+
+@pytest.mark.parametrize("field, value", [("press_tolerance", -0.001), ("press_substeps", 0)])
+def test_the_press_checks_settings_are_checked(field, value):
+    config = Config()
+    config = replace(config, physics=replace(config.physics, **{field: value}))
+    with pytest.raises(ConfigError, match=f"physics.{field}"):
         pipeline.check_config(config)

@@ -5,7 +5,9 @@ robot executes one plan, so each planner ranks its own candidates by what it kno
 baseline by its kinematic cost at the end of the path optimisation (Sec. IV: w_static_hull x
 c_static_hull + w_vel x c_vel), the physics planner by the objective in phi (or the ensemble
 score) of the path it chose (``details["select"]``; for plans made before that choice
-existed, its last phi stage's final objective). Lower is better.
+existed, its last phi stage's final objective; with neither - no phi stage and no choice in
+phi - the baseline's score of the path it started from, ``details["start_score"]``). Lower is
+better.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ def selection_score(planner: str, details: dict, baseline: BaselineConfig | None
         stages = details.get("stages") or {}
         last = stages.get("full") or stages.get("sphere") or {}
         value = (last.get("cost_history") or [None])[-1]
+        if value is None:
+            value = details.get("start_score")
     return None if value is None else float(value)
 
 

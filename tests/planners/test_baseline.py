@@ -421,6 +421,18 @@ def test_the_selected_candidate_has_the_lowest_kinematic_cost():
     assert selected_index([cands[2]], config) is None  # a failed candidate is never chosen
 
 
+def test_a_physics_plan_without_phi_scores_is_ranked_by_its_start():
+    from drake_clutter.planners.selection import selection_score
+
+    chosen = {"select": {"objectives": {"post": 2.0, "pre": 3.0}, "chosen": "post"},
+              "start_score": 9.0}
+    assert selection_score("physics", chosen) == 2.0
+    staged = {"stages": {"full": {"cost_history": [5.0, 4.0]}}, "start_score": 9.0}
+    assert selection_score("physics", staged) == 4.0
+    assert selection_score("physics", {"stages": {}, "start_score": 9.0}) == 9.0
+    assert selection_score("physics", {"stages": {}}) is None
+
+
 def _run(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "drake_clutter.cli", *args], cwd=REPO,
                           capture_output=True, text=True, timeout=300)

@@ -78,6 +78,7 @@ from drake_clutter.planners.physics.grasp_height import choose_height
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
 from drake_clutter.planners.physics.sampling import check_search, sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
+from drake_clutter.planners.selection import selection_score
 from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.solvers import ilqr, spline
@@ -371,6 +372,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep the start
             details["grasp_height"] = {"error": str(exc)}
         timings["height"] = time.perf_counter() - tic
+    details["start_score"] = selection_score("baseline", candidate.details, config.baseline)
     q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV);
     # only c_approach reads it.

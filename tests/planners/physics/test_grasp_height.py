@@ -92,6 +92,9 @@ def test_the_planner_starts_from_the_chosen_height_in_phi(scene, fig5_heights):
     height = record["candidates"][record["chosen"]]["height"]
     assert tool_z - scene.shelf.top_height == pytest.approx(height, abs=2e-3)
     assert candidate.timings["height"] > 0
+    # Without phi stages or a choice in phi the plan is ranked by its start's kinematic cost.
+    start = record["candidates"][record["chosen"]]
+    assert candidate.details["start_score"] is not None and start["height"] is not None
 
 
 @pytest.fixture(scope="module")

@@ -53,7 +53,8 @@ def settled_class(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray,
     if final is None:
         return None
     names = [b.name for b in scene.boxes]
-    states = np.asarray([final[n][:7] if n in final else _rest_state(scene, n) for n in names])
+    states = np.asarray([final[n][:7] if n in final else _pose_numbers(geometry.rest_pose(n))
+                         for n in names])
     p = states[:, 4:7]
     quat = states[:, :4] / np.linalg.norm(states[:, :4], axis=1, keepdims=True)
     x, y = quat[:, 1], quat[:, 2]
@@ -71,12 +72,9 @@ def settled_class(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray,
     return grade + 0.01 * int(fallen.sum() + tipped.sum())
 
 
-def _rest_state(scene: Scene, name: str) -> np.ndarray:
-    """A box's (quaternion wxyz, position in W) where the scene put it, resting on the board."""
-    box = next(b for b in scene.boxes if b.name == name)
-    x, y, yaw = box.pose
-    return np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2),
-                     x, y, scene.shelf.top_height + box.size[2] / 2])
+def _pose_numbers(X_WB) -> np.ndarray:
+    """A pose as phi's state holds it: quaternion wxyz, then position in W (m)."""
+    return np.concatenate([X_WB.rotation().ToQuaternion().wxyz(), X_WB.translation()])
 
 
 def height_candidates(scene: Scene, candidate: Candidate, config: Config

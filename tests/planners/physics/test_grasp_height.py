@@ -24,14 +24,15 @@ def _state(quat_wxyz, p_W) -> np.ndarray:
     return np.concatenate([quat_wxyz, p_W, np.zeros(6)])
 
 
-def _rest(scene, name: str) -> np.ndarray:
-    return _state(*np.split(grasp_height._rest_state(scene, name), [4]))
+def _rest(geometry, name: str) -> np.ndarray:
+    X_WB = geometry.rest_pose(name)
+    return _state(X_WB.rotation().ToQuaternion().wxyz(), X_WB.translation())
 
 
 def test_settled_class_reads_the_judges_classes_on_a_state(scene, geometry, baseline_path):
     q_last = baseline_path[-1]  # the pre-grasp pose: the target between the open fingers
     evaluation = Config().evaluation
-    at_rest = {b.name: _rest(scene, b.name) for b in scene.boxes}
+    at_rest = {b.name: _rest(geometry, b.name) for b in scene.boxes}
     assert grasp_height.settled_class(scene, geometry, q_last, at_rest, evaluation) == 0.0
     # Boxes phi held frozen are where the scene put them.
     assert grasp_height.settled_class(scene, geometry, q_last, {}, evaluation) == 0.0

@@ -35,7 +35,7 @@ from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.physics.ensemble import member_rollouts
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.penetration import path_press
-from drake_clutter.scene.grading import off_the_board, target_zone_reason
+from drake_clutter.scene.grading import off_the_board, target_zone_reason, tilt_angle
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate
 
@@ -56,16 +56,14 @@ def settled_class(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray,
     states = np.asarray([final[n][:7] if n in final else _pose_numbers(geometry.rest_pose(n))
                          for n in names])
     p = states[:, 4:7]
-    quat = states[:, :4] / np.linalg.norm(states[:, :4], axis=1, keepdims=True)
-    x, y = quat[:, 1], quat[:, 2]
-    tilt = np.arccos(np.clip(1 - 2 * (x * x + y * y), -1, 1))  # angle of z_B from z_W
+    R_WB = np.array([RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix()
+                     for q in states[:, :4]])
     fallen = off_the_board(scene, p)
-    tipped = ~fallen & (tilt > evaluation.max_tilt)
+    tipped = ~fallen & (tilt_angle(R_WB) > evaluation.max_tilt)
     X_WG = geometry.tool_jacobian(q_last)[0]
     i = names.index(scene.target)
     R_WG = X_WG.rotation().matrix()
-    R_WT = RotationMatrix(Quaternion(quat[i])).matrix()
-    reason = target_zone_reason(R_WG.T @ (p[i] - X_WG.translation()), R_WG.T @ R_WT,
+    reason = target_zone_reason(R_WG.T @ (p[i] - X_WG.translation()), R_WG.T @ R_WB[i],
                                 scene.target_box.size, float(q_last[7]), evaluation)
     others = [k for k, n in enumerate(names) if n != scene.target]
     grade = 2 if fallen.any() or reason else 1 if tipped[others].any() else 0

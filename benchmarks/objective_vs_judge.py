@@ -122,12 +122,11 @@ def add_phi_class(plans: list[dict], config) -> None:
     member's entry: the latter reads a kinematic failure (class 3) where c_force is at least
     one knot's worth of a contact at the judge's shelf-force limit (w_force / 2 x
     max_static_force^2)."""
-    geometries = {}
+    scene, geometry = None, None
     for p in sorted(plans, key=lambda p: p["scene"]):
-        scene = stored_scene(p["scene"], config)
-        if p["scene"] not in geometries:  # one scene's world at a time
-            geometries = {p["scene"]: ArmGeometry(scene, "capsules")}
-        geometry = geometries[p["scene"]]
+        if scene is None or p["scene"] != scene.name:  # one scene's world at a time
+            scene = stored_scene(p["scene"], config)
+            geometry = ArmGeometry(scene, "capsules")
         q_last = np.asarray(p["trajectory"].q[-1], float)
         for m in p["members"]:
             if m is not None:

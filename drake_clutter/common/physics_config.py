@@ -163,11 +163,13 @@ class PhysicsConfig:
     keep_open: bool = True
     # the plan is the best in one phi of the baseline, pre- and post-processed paths, flag; ours
     select_in_phi: bool = True
+    # select ranks paths that press on a box's top (path_press) after the rest, flag; ours
+    select_press: bool = False
     # grasp heights also tried per angle in phi's ensemble, of the target's height, unitless; ours
     grasp_heights: tuple[float, ...] = ()
     # grasp height chosen by the press check ("press") or phi's ensemble class ("phi"), choice; ours
     height_choice: Literal["phi", "press"] = "press"
-    # deepest press (physics.press_normal_z) the "press" choice counts as none, m; ours
+    # deepest press (physics.press_normal_z) the height choice and select count as none, m; ours
     press_tolerance: float = 0.0005
     # configurations per knot interval the press check reads, count; ours
     press_substeps: int = 4

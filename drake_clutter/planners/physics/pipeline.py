@@ -34,7 +34,10 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `object
    (hold tail included); the lowest is the plan (ties go to the earlier in that order), so the
    physics plan is never worse than its baseline in phi's own objective. With
    ``ensemble.members`` > 1 the paths are ranked by their ensemble score instead
-   (`ensemble.ensemble_scores`). ``details["select"]`` lists the objectives and the choice.
+   (`ensemble.ensemble_scores`). With ``select_press`` a path that presses on a box's top
+   (`penetration.path_press` deeper than ``press_tolerance``, the boxes at rest) ranks after
+   every path that does not, whatever its objective: phi's compliant boxes make way where the
+   judge's cannot. ``details["select"]`` lists the objectives, the presses and the choice.
 
 What the stages keep (bounds, not costs; ours): the pre-processing keeps the baseline's last
 knot and gripper openings (``pre_keep_pregrasp``: Sec. IV's pre-grasp pose is a constraint
@@ -76,6 +79,7 @@ from drake_clutter.planners.physics.ensemble import check_ensemble, ensemble_sco
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.grasp_height import choose_height
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
+from drake_clutter.planners.physics.penetration import path_press
 from drake_clutter.planners.physics.sampling import check_search, sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
 from drake_clutter.planners.selection import selection_score
@@ -310,9 +314,22 @@ def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool
             values = {n: _path_objective(problem.augmented, problem.objective, problem.z0,
                                          paths[n]) for n in names}
             pruning = problem.report.summary()
-    chosen = min(names, key=lambda n: (values[n], names.index(n)))
+    presses = _presses(scene, paths, config) if config.physics.select_press else {}
+    tolerance = config.physics.press_tolerance
+    chosen = min(names, key=lambda n: (presses.get(n, 0.0) > tolerance, values[n],
+                                       names.index(n)))
     finite = {n: (v if np.isfinite(v) else None) for n, v in values.items()}
+    if presses:
+        extra["presses"] = presses
     return chosen, {"objectives": finite, "chosen": chosen, "pruning": pruning, **extra}
+
+
+def _presses(scene: Scene, paths: dict[str, np.ndarray], config: Config) -> dict[str, float]:
+    """Each path's deepest press on a box's top (m; `penetration.path_press`, the boxes at
+    rest, the capsule arm): the judge's usual kinematic failure as a geometric check."""
+    geometry = ArmGeometry(scene, "capsules")
+    return {n: path_press(geometry, q, config.physics.press_substeps,
+                          config.physics.press_normal_z) for n, q in paths.items()}
 
 
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,

@@ -839,6 +839,58 @@ def test_select_path_takes_the_lowest_objective_ties_to_the_first(monkeypatch):
     assert physics.select_path(None, paths, Config())[0] == "post"
 
 
+def test_select_press_ranks_pressing_paths_last(monkeypatch):
+    """With ``physics.select_press`` a path whose press is deeper than ``press_tolerance``
+    loses to any path that is not, whatever phi's objectives; among pressing paths (or with
+    the flag off) the objective decides; the presses are reported."""
+    from contextlib import contextmanager
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from drake_clutter.common.config import Config
+    from drake_clutter.planners.physics import pipeline as physics
+
+    @contextmanager
+    def problem(scene, q, config, variant, pool, knot_time, approach, also=()):
+        yield SimpleNamespace(augmented=None, objective=None, z0=None,
+                              report=SimpleNamespace(summary=lambda: ""))
+
+    monkeypatch.setattr(physics, "stage_problem", problem)
+    monkeypatch.setattr(physics, "_path_objective", lambda d, o, z, q: {0.0: 1.0, 1.0: 2.0,
+                                                                         2.0: 3.0}[q[0, 0]])
+    presses = {"post": 0.03, "pre": 0.0004, "baseline": 0.0}
+    monkeypatch.setattr(physics, "_presses", lambda scene, paths, config: dict(presses))
+    paths = {name: np.full((3, 8), float(i)) for i, name in enumerate(("post", "pre", "baseline"))}
+    on = Config()
+    on = replace(on, physics=replace(on.physics, select_press=True))
+    chosen, info = physics.select_path(None, paths, on)
+    assert chosen == "pre" and info["presses"] == presses  # 0.4 mm is within the tolerance
+    presses.update(pre=0.01, baseline=0.02)  # all press: the objective decides
+    assert physics.select_path(None, paths, on)[0] == "post"
+    presses.update(post=0.03, pre=0.01, baseline=0.0)
+    assert physics.select_path(None, paths, on)[0] == "baseline"
+    chosen, info = physics.select_path(None, paths, Config())  # off: phi alone
+    assert chosen == "post" and "presses" not in info
+
+
+def test_presses_reads_the_path_press_of_each_path(scene):
+    """`_presses`: `penetration.path_press` of each path on the scene's boxes at rest, with
+    ``physics.press_substeps`` and ``press_normal_z``, whatever another geometry did."""
+    from drake_clutter.common.config import Config
+    from drake_clutter.planners.physics import pipeline as physics
+    from drake_clutter.planners.physics.geometry import ArmGeometry
+    from drake_clutter.planners.physics.penetration import path_press
+
+    config = Config()
+    paths = {"still": np.array([Q_PREGRASP, Q_PREGRASP]),
+             "moving": np.array([Q_PREGRASP, Q_PREGRASP + 0.05])}
+    found = physics._presses(scene, paths, config)
+    fresh = ArmGeometry(scene, "capsules")
+    assert found == {n: path_press(fresh, q, config.physics.press_substeps,
+                                   config.physics.press_normal_z) for n, q in paths.items()}
+    assert all(v >= 0.0 for v in found.values())
+
+
 def test_failed_candidates_pass_through(scene):
     from drake_clutter.common.config import Config
     from drake_clutter.planners.physics.pipeline import plan_physics

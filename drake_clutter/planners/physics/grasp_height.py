@@ -103,13 +103,13 @@ def choose_height(scene: Scene, candidate: Candidate, config: Config, pool=None
     ``ensemble.members`` members (inf where phi fails in any); ties to the earlier."""
     found = height_candidates(scene, candidate, config)
     geometry = ArmGeometry(scene, "capsules")
+    presses = (press_depths(geometry, {f: c.trajectory.q for f, c in found.items()}, config)
+               if config.physics.height_choice == "press" else {})
     record, scores = {}, {}
     for fraction, c in found.items():
-        q = np.asarray(c.trajectory.q, dtype=float)
         record[f"{fraction:g}"] = entry = {"height": c.details.get("height")}
         if config.physics.height_choice == "press":
-            entry["press"] = path_press(geometry, q, config.physics.press_substeps,
-                                        config.physics.press_normal_z)
+            entry["press"] = presses[fraction]
             scores[fraction] = float(entry["press"] > config.physics.press_tolerance)
         else:
             entry["classes"] = _member_classes(scene, geometry, c, config, pool)
@@ -118,6 +118,14 @@ def choose_height(scene: Scene, candidate: Candidate, config: Config, pool=None
     chosen = min(found, key=lambda f: (scores[f], list(found).index(f)))
     return found[chosen], {"rule": config.physics.height_choice, "candidates": record,
                            "chosen": f"{chosen:g}"}
+
+
+def press_depths(geometry: ArmGeometry, paths: dict, config: Config) -> dict:
+    """Each knot path's (T + 1, 8) deepest press on a box's top (m; `penetration.path_press`
+    at ``physics.press_substeps`` configurations per interval, normals above
+    ``physics.press_normal_z``), the boxes where ``geometry`` last put them, by key."""
+    return {k: path_press(geometry, np.asarray(q, dtype=float), config.physics.press_substeps,
+                          config.physics.press_normal_z) for k, q in paths.items()}
 
 
 def _member_classes(scene: Scene, geometry: ArmGeometry, candidate: Candidate, config: Config,

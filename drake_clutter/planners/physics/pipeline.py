@@ -77,9 +77,8 @@ from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline, spline_basis
 from drake_clutter.planners.physics.ensemble import check_ensemble, ensemble_scores
 from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.grasp_height import choose_height
+from drake_clutter.planners.physics.grasp_height import choose_height, press_depths
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
-from drake_clutter.planners.physics.penetration import path_press
 from drake_clutter.planners.physics.sampling import check_search, sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
 from drake_clutter.planners.selection import selection_score
@@ -327,9 +326,7 @@ def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool
 def _presses(scene: Scene, paths: dict[str, np.ndarray], config: Config) -> dict[str, float]:
     """Each path's deepest press on a box's top (m; `penetration.path_press`, the boxes at
     rest, the capsule arm): the judge's usual kinematic failure as a geometric check."""
-    geometry = ArmGeometry(scene, "capsules")
-    return {n: path_press(geometry, q, config.physics.press_substeps,
-                          config.physics.press_normal_z) for n, q in paths.items()}
+    return press_depths(ArmGeometry(scene, "capsules"), paths, config)
 
 
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,

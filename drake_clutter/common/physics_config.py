@@ -234,7 +234,7 @@ class PhysicsConfig:
     # state the phi stages feed back ("all", or "arm": not the boxes' chaotic part), choice; ours
     feedback_state: Literal["all", "arm"] = "all"
     # controls of the phi stages: every knot ("knots", Sec. V) or B-spline points, choice; ours
-    controls: Literal["knots", "spline"] = "knots"
+    controls: Literal["knots", "spline"] = "spline"
     # B-spline control points of "spline" controls (the baseline's, Sec. IV), count; ours
     control_points: int = 10
     # smallest control move that keeps a phi stage going (0 = off), rad (m: opening); ours

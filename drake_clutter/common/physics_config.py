@@ -165,7 +165,7 @@ class PhysicsConfig:
     select_in_phi: bool = True
     # select ranks paths that press on a box's top (path_press) after the rest, flag; ours
     select_press: bool = True
-    # grasp heights also tried per angle (height_choice picks), of the target's height; ours
+    # grasp heights also tried per angle (height_choice picks), of target height, unitless; ours
     grasp_heights: tuple[float, ...] = (0.6, 0.7, 0.8, 0.9)
     # grasp height chosen by the press check ("press") or phi's ensemble class ("phi"), choice; ours
     height_choice: Literal["phi", "press"] = "press"

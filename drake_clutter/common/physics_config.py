@@ -167,10 +167,12 @@ class PhysicsConfig:
     select_press: bool = True
     # grasp heights also tried per angle (height_choice picks), of target height, unitless; ours
     grasp_heights: tuple[float, ...] = (0.6, 0.7, 0.8, 0.9)
-    # grasp height chosen by the press check ("press") or phi's ensemble class ("phi"), choice; ours
-    height_choice: Literal["phi", "press"] = "press"
+    # grasp height chosen by the press check, it and side contact ("clear") or phi, choice; ours
+    height_choice: Literal["phi", "press", "clear"] = "press"
     # deepest press (physics.press_normal_z) the height choice and select count as none, m; ours
     press_tolerance: float = 0.0005
+    # deepest side penetration of a non-target box the "clear" height choice counts as none, m; ours
+    side_tolerance: float = 0.005
     # configurations per knot interval the press check reads, count; ours
     press_substeps: int = 4
     # search before the phi stages ("none", or "sampling": see sampling.py), choice; ours

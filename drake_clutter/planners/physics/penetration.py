@@ -123,10 +123,24 @@ def path_press(geometry: ArmGeometry, q: np.ndarray, substeps: int, normal_z: fl
     arm-box pair that presses down (`pressing`) over ``substeps`` configurations per knot
     interval of ``q`` (knots, 8 each), the boxes where ``geometry`` last put them (at first
     their resting poses). The judge's usual kinematic failure as a geometric check."""
+    return path_depths(geometry, q, substeps, normal_z)[0]
+
+
+def path_depths(geometry: ArmGeometry, q: np.ndarray, substeps: int, normal_z: float,
+                side_exclude: tuple[str, ...] = ()) -> tuple[float, float]:
+    """(press, side) over a path (m, 0 where none): the deepest penetration of an arm-box pair
+    that presses down (`pressing`, every box) and of one that does not (the arm against a
+    box's side; boxes in ``side_exclude`` skipped), over ``substeps`` configurations per knot
+    interval of ``q`` (knots, 8 each), the boxes where ``geometry`` last put them."""
     q = np.asarray(q, dtype=float)
-    deepest = 0.0
+    press = side = 0.0
     for q_a, q_b in zip(q[:-1], q[1:], strict=True):
         for lam in np.arange(1, substeps + 1) / substeps:
             found = geometry.contacts((1 - lam) * q_a + lam * q_b, None, 0.0, "boxes")
-            deepest = max([deepest, *(-c.distance for c in pressing(found, normal_z))])
-    return deepest
+            down = {id(c) for c in pressing(found, normal_z)}
+            for c in found:
+                if id(c) in down:
+                    press = max(press, -c.distance)
+                elif c.obstacle not in side_exclude:
+                    side = max(side, -c.distance)
+    return press, side

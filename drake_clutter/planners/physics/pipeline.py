@@ -473,6 +473,7 @@ def check_config(config: Config) -> None:
               ("grasp_heights", all(0 < f <= 1 for f in cfg.grasp_heights),
                "fractions of the target's height in (0, 1]"),
               ("press_tolerance", cfg.press_tolerance >= 0, "non-negative"),
+              ("side_tolerance", cfg.side_tolerance >= 0, "non-negative"),
               ("press_substeps", cfg.press_substeps >= 1, "at least 1"),
               ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
               ("post_substeps", cfg.post_substeps >= 1, "at least 1"),

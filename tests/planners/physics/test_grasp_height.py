@@ -136,6 +136,43 @@ def test_the_press_choice_keeps_the_start_unless_it_presses_and_another_does_not
     assert record["chosen"] == "0.7" and chosen.details["height"] > base
 
 
+def test_the_clear_choice_prefers_a_path_off_every_box_then_one_that_does_not_press(
+        scene, monkeypatch):
+    from drake_clutter.planners.baseline import plan_baseline
+
+    config = load_config(None, ["physics.grasp_heights=[0.7, 0.9]",
+                                "physics.height_choice=clear"])
+    (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
+    base = start.details["height"]
+    excluded = []
+
+    def stub(depths):  # (press, side) (m) by the path's grasp height above the start's
+        def path_depths(geometry, q, substeps, normal_z, side_exclude=()):
+            excluded.append(side_exclude)
+            h = geometry.tool(q[-1])[0][2] - scene.shelf.top_height
+            return depths(h - base)
+        monkeypatch.setattr(grasp_height, "path_depths", path_depths)
+
+    def chosen(depths):
+        stub(depths)
+        return grasp_height.choose_height(scene, start, config)
+
+    found, record = chosen(lambda dh: (0.0, 0.01))  # every path touches a side: the start
+    assert found is start and record["rule"] == "clear"
+    assert (record["candidates"]["0.9"]["press"], record["candidates"]["0.9"]["side"]) == (
+        0.0, 0.01)
+    assert set(excluded) == {(scene.target,)}  # the target's sides are the grasp's
+    top = 0.3 * scene.target_box.size[2]  # between 0.7's and 0.9's height above the start's
+    # The start touches a side, 0.9 (listed last) is clear: 0.9.
+    assert chosen(lambda dh: (0.0, 0.0 if dh > top else 0.01))[1]["chosen"] == "0.9"
+    # The start's 4 mm is within side_tolerance (5 mm): the start counts as clear.
+    assert chosen(lambda dh: (0.0, 0.0 if dh > top else 0.004))[0] is start
+    # Nothing is clear: the press rule (the start presses, 0.7 too, 0.9 only touches a side).
+    found, record = chosen(lambda dh: (0.0, 0.01) if dh > top else (0.004, 0.0))
+    assert record["chosen"] == "0.9" and found.details["height"] > base
+    assert chosen(lambda dh: (0.004, 0.0))[0] is start  # every path presses: the start
+
+
 @pytest.mark.parametrize("fractions", [[0.0], [1.2], [0.6, -0.1]])
 def test_grasp_heights_must_be_fractions_of_the_target(fractions):
     config = Config()
@@ -144,7 +181,8 @@ def test_grasp_heights_must_be_fractions_of_the_target(fractions):
         pipeline.check_config(config)
 
 
-@pytest.mark.parametrize("field, value", [("press_tolerance", -0.001), ("press_substeps", 0)])
+@pytest.mark.parametrize("field, value", [("press_tolerance", -0.001), ("press_substeps", 0),
+                                          ("side_tolerance", -0.001)])
 def test_the_press_checks_settings_are_checked(field, value):
     config = Config()
     config = replace(config, physics=replace(config.physics, **{field: value}))

@@ -28,6 +28,7 @@ from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective
 from drake_clutter.planners.physics.penetration import (
     deep_penetration_term,
+    path_depths,
     path_press,
     press_term,
     pressing,
@@ -175,6 +176,30 @@ def test_press_term_picks_the_arm_over_a_box_top_and_its_gradient_matches(geomet
     geometry.set_state(q, beside)
     assert path_press(geometry, np.array([q, q]), 2, 0.5) == 0.0
     geometry.set_state(q, {box.name: geometry.rest_pose(box.name)})
+
+
+def test_path_depths_splits_a_box_top_from_its_side(geometry):
+    """`path_depths` with every other box out of the way: nothing touched reads (0, 0); the
+    wide box under the gripper is a press (as `path_press` reads it); the box beside the
+    gripper, entered from the side, is a side penetration as deep as its deepest contact, and
+    none where that box is excluded."""
+    q = Q_PREGRASP
+    path = np.array([q, q])
+    p_G = geometry.tool(q)[0]
+    box = geometry.scene.box("large_stable")
+    away = {b.name: RigidTransform([5.0 + i, 5.0, 0.0])
+            for i, b in enumerate(geometry.scene.boxes)}
+    geometry.set_state(q, away)
+    assert path_depths(geometry, path, 2, 0.5) == (0.0, 0.0)
+    geometry.set_state(q, {box.name: RigidTransform(p_G + [0.0, 0.0, 0.005 - box.size[2] / 2])})
+    press, _ = path_depths(geometry, path, 2, 0.5)
+    assert press > 0.0 and press == path_press(geometry, path, 2, 0.5)
+    geometry.set_state(q, {box.name: RigidTransform(p_G + [0.0, box.size[1] / 2, 0.0])})
+    entered = [c for c in geometry.contacts(q, None, 0.0, "boxes") if c.obstacle == box.name]
+    assert entered and all(c.normal[2] <= 0.5 for c in entered)
+    assert path_depths(geometry, path, 2, 0.5) == (0.0, max(-c.distance for c in entered))
+    assert path_depths(geometry, path, 2, 0.5, (box.name,)) == (0.0, 0.0)
+    geometry.set_state(q, {b.name: geometry.rest_pose(b.name) for b in geometry.scene.boxes})
 
 
 # ----------------------------------------------------------------------------- objective

@@ -168,7 +168,7 @@ class PhysicsConfig:
     # grasp heights also tried per angle (height_choice picks), of target height, unitless; ours
     grasp_heights: tuple[float, ...] = (0.6, 0.7, 0.8, 0.9)
     # grasp height chosen by the press check, it and side contact ("clear") or phi, choice; ours
-    height_choice: Literal["phi", "press", "clear"] = "press"
+    height_choice: Literal["phi", "press", "clear"] = "clear"
     # deepest press (physics.press_normal_z) the height choice and select count as none, m; ours
     press_tolerance: float = 0.0005
     # deepest side penetration of a non-target box the "clear" height choice counts as none, m; ours

@@ -16,8 +16,8 @@ physics planner's stages (``physics.height_choice``):
 - "clear": as "press", but a listed height whose path also keeps off the other boxes' sides
   (`penetration.path_depths`: no side penetration deeper than ``physics.side_tolerance``, the
   target's excepted) comes first; the baseline ignores the boxes, and at some heights its line
-  happens to pass them. On the probe tier, offline over the baseline's five heights, +0.047
-  [+0.013, +0.089] in P(success) against the fixed height where "press" made +0.026 (7 and 5
+  happens to pass them. On the probe tier, offline over the baseline's five heights, +0.049
+  [+0.014, +0.091] in P(success) against the fixed height where "press" made +0.026 (8 and 5
   initializations up, none down; docs/physics_planner.md, 2026-11-26 evening).
 - "phi": every path rolled out in each of phi's ensemble members (one phi per path: their
   starts differ), the judge's classes read on phi's state after the hold tail

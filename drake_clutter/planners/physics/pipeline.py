@@ -5,7 +5,7 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `object
 
 0. ``height`` (ours, ``physics.grasp_heights``; off when empty): the baseline is planned at
    the same angle at each listed grasp height too, and the path chosen by
-   ``physics.height_choice`` (the press check, or the best class in phi's ensemble) becomes
+   ``physics.height_choice`` (the geometric checks, or the best class in phi's ensemble) becomes
    the start of every stage below and the "baseline" path of ``select``
    (`grasp_height.choose_height`).
 1. ``pre`` (Sec. V-A): the kinematic arm alone, boxes held fixed where the scene puts them:

@@ -114,8 +114,7 @@ def test_the_press_choice_keeps_the_start_unless_it_presses_and_another_does_not
         scene, monkeypatch):
     from drake_clutter.planners.baseline import plan_baseline
 
-    config = load_config(None, ["physics.grasp_heights=[0.7, 0.9]"])
-    assert config.physics.height_choice == "press"
+    config = load_config(None, ["physics.grasp_heights=[0.7, 0.9]", "physics.height_choice=press"])
     (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
     base = start.details["height"]
 

@@ -731,8 +731,9 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate, control
     (plan,) = plan_physics(scene, config, [fig5_candidate])
     assert plan.ok and plan.planner == "physics", plan.reason
     assert set(plan.timings) == {"height", "pre", "sphere", "full", "post", "select"}
-    height = plan.details["grasp_height"]  # the start: the first non-pressing height, or 0.5
-    assert height["rule"] == "press" and "0.5" in height["candidates"]
+    height = plan.details["grasp_height"]  # the start: the first clear height, or as "press"
+    assert height["rule"] == "clear" and "0.5" in height["candidates"]
+    assert all({"press", "side"} <= set(c) for c in height["candidates"].values())
     assert height["chosen"] in height["candidates"]
     stages = plan.details["stages"]
     for name in ("pre", "sphere", "full", "post"):

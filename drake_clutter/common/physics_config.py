@@ -167,6 +167,8 @@ class PhysicsConfig:
     select_press: bool = True
     # grasp heights also tried per angle (height_choice picks), of target height, unitless; ours
     grasp_heights: tuple[float, ...] = (0.6, 0.7, 0.8, 0.9)
+    # approach angle offsets also tried at every grasp height (height_choice picks), rad; ours
+    approach_offsets: tuple[float, ...] = ()
     # grasp height chosen by the press check, it and side contact ("clear") or phi, choice; ours
     height_choice: Literal["phi", "press", "clear"] = "clear"
     # deepest press (physics.press_normal_z) the height choice and select count as none, m; ours

@@ -1,4 +1,4 @@
-"""Choosing the grasp height at each approach angle (beyond the paper).
+"""Choosing the grasp height and the approach line at each approach angle (beyond the paper).
 
 Sec. IV fixes the grasp height h (``baseline.grasp_height_fraction`` of the target's height) and
 the physics planner starts from the baseline's path at that height. Which height succeeds
@@ -7,13 +7,15 @@ the part of the target the pads close on): on the probe tier the best of five he
 initialization succeeds 0.08 more often than the fixed one, and no fixed height is better on
 average (docs/physics_planner.md, 2026-11-26). The baseline cannot choose: it ignores the
 boxes. The physics planner sees them. With ``physics.grasp_heights`` the baseline is planned at
-each listed height too (the same angle and IK seeds) and one path becomes the start of the
-physics planner's stages (``physics.height_choice``):
+each listed height too (the same angle and IK seeds), with ``physics.approach_offsets`` at the
+angle turned by each offset too (a few degrees: the straight line into the pre-grasp passes the
+target's neighbours elsewhere), and one path becomes the start of the physics planner's stages
+(``physics.height_choice``):
 
-- "press": the start's height unless its path presses on a box's top (`penetration.path_press`,
-  the judge's usual kinematic failure as a geometric check on the boxes at rest) and a listed
-  height's does not, then the first such.
-- "clear": as "press", but a listed height whose path also keeps off the other boxes' sides
+- "press": the start unless its path presses on a box's top (`penetration.path_depths`, the
+  judge's usual kinematic failure as a geometric check on the boxes at rest) and a listed
+  one's does not, then the first such.
+- "clear": as "press", but a listed one whose path also keeps off the other boxes' sides
   (`penetration.path_depths`: no side penetration deeper than ``physics.side_tolerance``, the
   target's excepted) comes first; the baseline ignores the boxes, and at some heights its line
   happens to pass them. On the probe tier, offline over the baseline's five heights, +0.049
@@ -40,7 +42,7 @@ from drake_clutter.planners import baseline
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.physics.ensemble import member_rollouts
 from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.penetration import path_depths, path_press
+from drake_clutter.planners.physics.penetration import path_depths
 from drake_clutter.scene.grading import off_the_board, target_zone_reason, tilt_angle
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate
@@ -81,70 +83,76 @@ def _pose_numbers(X_WB) -> np.ndarray:
     return np.concatenate([X_WB.rotation().ToQuaternion().wxyz(), X_WB.translation()])
 
 
+def start_key(fraction: float, offset: float) -> str:
+    """A start's name in the record: its grasp height fraction, and its approach yaw offset
+    (rad) where it has one ("0.7", "0.7 yaw -0.06")."""
+    return f"{fraction:g}" if offset == 0.0 else f"{fraction:g} yaw {offset:+g}"
+
+
 def height_candidates(scene: Scene, candidate: Candidate, config: Config
-                      ) -> dict[float, Candidate]:
+                      ) -> dict[tuple[float, float], Candidate]:
     """The start ``candidate`` (the baseline's, at ``baseline.grasp_height_fraction``) and the
-    baseline planned at the same angle at each fraction of ``physics.grasp_heights``, by
-    fraction (the start's first); only candidates with a trajectory ("ok")."""
+    baseline planned at each fraction of ``physics.grasp_heights`` at the same angle, then at
+    the angle turned by each yaw offset of ``physics.approach_offsets`` (rad) at every
+    fraction, by (fraction, offset) in that order (the start's first); only candidates with a
+    trajectory ("ok")."""
     alphas = approach_angles(config.baseline)
     index = int(np.argmin(np.abs(alphas - candidate.alpha)))
-    out = {config.baseline.grasp_height_fraction: candidate}
-    for fraction in config.physics.grasp_heights:
-        if fraction in out:
-            continue
-        cfg = replace(config.baseline, grasp_height_fraction=fraction)
-        found = baseline.plan_angle(baseline.prepare(scene, cfg), candidate.alpha, index)
-        if found.ok:
-            out[fraction] = found
+    base = config.baseline.grasp_height_fraction
+    fractions = [base] + [f for f in config.physics.grasp_heights if f != base]
+    offsets = [0.0] + [o for o in config.physics.approach_offsets if o != 0.0]
+    contexts, out = {}, {}
+    for offset in offsets:
+        for fraction in fractions:
+            if (fraction, offset) == (base, 0.0):
+                out[(base, 0.0)] = candidate
+                continue
+            if fraction not in contexts:
+                cfg = replace(config.baseline, grasp_height_fraction=fraction)
+                contexts[fraction] = baseline.prepare(scene, cfg)
+            found = baseline.plan_angle(contexts[fraction], candidate.alpha + offset, index)
+            if found.ok:
+                out[(fraction, offset)] = found
     return out
 
 
 def choose_height(scene: Scene, candidate: Candidate, config: Config, pool=None
                   ) -> tuple[Candidate, dict]:
     """The candidate among `height_candidates` chosen by ``physics.height_choice`` and what was
-    measured (per fraction, as text: its height h (m) and its press (m), with "clear" its side
-    penetration (m) too, or its members' classes; the chosen fraction). "press": the first
-    candidate (the start's first) whose path does not press on a box's top
-    (`penetration.path_press` at most ``press_tolerance``), else the start. "clear": the first
-    that neither presses nor enters a non-target box's side deeper than ``side_tolerance``,
-    else as "press". "phi": the lowest mean `settled_class` over phi's ``ensemble.members``
-    members (inf where phi fails in any); ties to the earlier."""
+    measured (per `start_key`, as text: its height h (m), its yaw offset (rad) and its press
+    (m), with "clear" its side penetration (m) too, or its members' classes; the chosen key).
+    "press": the first candidate (the start's first) whose path does not press on a box's top
+    (`penetration.path_depths` at most ``press_tolerance``), else the start. "clear": the
+    first that neither presses nor enters a non-target box's side deeper than
+    ``side_tolerance``, else as "press". "phi": the lowest mean `settled_class` over phi's
+    ``ensemble.members`` members (inf where phi fails in any); ties to the earlier."""
     found = height_candidates(scene, candidate, config)
     geometry = ArmGeometry(scene, "capsules")
     rule, physics = config.physics.height_choice, config.physics
-    paths = {f: c.trajectory.q for f, c in found.items()}
-    depths = (press_depths(geometry, paths, config) if rule == "press" else
-              side_depths(geometry, paths, config, scene.target) if rule == "clear" else {})
+    paths = {k: c.trajectory.q for k, c in found.items()}
+    depths = box_depths(geometry, paths, config, scene.target) if rule != "phi" else {}
     record, scores = {}, {}
-    for fraction, c in found.items():
-        record[f"{fraction:g}"] = entry = {"height": c.details.get("height")}
-        if rule == "press":
-            entry["press"] = depths[fraction]
-            scores[fraction] = (float(entry["press"] > physics.press_tolerance),)
-        elif rule == "clear":
-            entry["press"], entry["side"] = depths[fraction]
-            scores[fraction] = (float(entry["press"] > physics.press_tolerance),
-                                float(entry["side"] > physics.side_tolerance))
-        else:
-            entry["classes"] = _member_classes(scene, geometry, c, config, pool)
-            classes = entry["classes"]
-            scores[fraction] = (np.inf if None in classes else float(np.mean(classes)),)
-    chosen = min(found, key=lambda f: (*scores[f], list(found).index(f)))
-    return found[chosen], {"rule": rule, "candidates": record, "chosen": f"{chosen:g}"}
+    for key, c in found.items():
+        record[start_key(*key)] = entry = {"height": c.details.get("height"),
+                                           "yaw_offset": key[1]}
+        if rule == "phi":
+            entry["classes"] = classes = _member_classes(scene, geometry, c, config, pool)
+            scores[key] = (np.inf if None in classes else float(np.mean(classes)),)
+            continue
+        entry["press"] = depths[key][0]
+        scores[key] = (float(entry["press"] > physics.press_tolerance),)
+        if rule == "clear":
+            entry["side"] = depths[key][1]
+            scores[key] = (*scores[key], float(entry["side"] > physics.side_tolerance))
+    chosen = min(found, key=lambda k: (*scores[k], list(found).index(k)))
+    return found[chosen], {"rule": rule, "candidates": record, "chosen": start_key(*chosen)}
 
 
-def press_depths(geometry: ArmGeometry, paths: dict, config: Config) -> dict:
-    """Each knot path's (T + 1, 8) deepest press on a box's top (m; `penetration.path_press`
-    at ``physics.press_substeps`` configurations per interval, normals above
-    ``physics.press_normal_z``), the boxes where ``geometry`` last put them, by key."""
-    return {k: path_press(geometry, np.asarray(q, dtype=float), config.physics.press_substeps,
-                          config.physics.press_normal_z) for k, q in paths.items()}
-
-
-def side_depths(geometry: ArmGeometry, paths: dict, config: Config, target: str) -> dict:
+def box_depths(geometry: ArmGeometry, paths: dict, config: Config, target: str) -> dict:
     """Each knot path's (T + 1, 8) (press, side) depths (m; `penetration.path_depths` at
-    ``physics.press_substeps`` configurations per interval; sides of every box but
-    ``target``), the boxes where ``geometry`` last put them, by key."""
+    ``physics.press_substeps`` configurations per interval, normals above
+    ``physics.press_normal_z``; sides of every box but ``target``), the boxes where
+    ``geometry`` last put them, by key."""
     return {k: path_depths(geometry, np.asarray(q, dtype=float), config.physics.press_substeps,
                            config.physics.press_normal_z, (target,))
             for k, q in paths.items()}

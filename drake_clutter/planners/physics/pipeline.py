@@ -77,7 +77,7 @@ from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline, spline_basis
 from drake_clutter.planners.physics.ensemble import check_ensemble, ensemble_scores
 from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.grasp_height import choose_height, press_depths
+from drake_clutter.planners.physics.grasp_height import box_depths, choose_height
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
 from drake_clutter.planners.physics.sampling import check_search, sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
@@ -326,7 +326,8 @@ def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool
 def _presses(scene: Scene, paths: dict[str, np.ndarray], config: Config) -> dict[str, float]:
     """Each path's deepest press on a box's top (m; `penetration.path_press`, the boxes at
     rest, the capsule arm): the judge's usual kinematic failure as a geometric check."""
-    return press_depths(ArmGeometry(scene, "capsules"), paths, config)
+    depths = box_depths(ArmGeometry(scene, "capsules"), paths, config, scene.target)
+    return {name: press for name, (press, _) in depths.items()}
 
 
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
@@ -379,7 +380,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
                        reason=f"no initialization: {candidate.reason or candidate.status}")
     cfg = config.physics
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
-    if cfg.grasp_heights:
+    if cfg.grasp_heights or cfg.approach_offsets:
         tic = time.perf_counter()
         try:
             candidate, details["grasp_height"] = choose_height(scene, candidate, config, pool)
@@ -472,6 +473,8 @@ def check_config(config: Config) -> None:
               ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
               ("grasp_heights", all(0 < f <= 1 for f in cfg.grasp_heights),
                "fractions of the target's height in (0, 1]"),
+              ("approach_offsets", all(abs(o) <= 0.5 for o in cfg.approach_offsets),
+               "yaw offsets (rad) within [-0.5, 0.5]"),
               ("press_tolerance", cfg.press_tolerance >= 0, "non-negative"),
               ("side_tolerance", cfg.side_tolerance >= 0, "non-negative"),
               ("press_substeps", cfg.press_substeps >= 1, "at least 1"),

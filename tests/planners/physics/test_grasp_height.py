@@ -118,11 +118,11 @@ def test_the_press_choice_keeps_the_start_unless_it_presses_and_another_does_not
     (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
     base = start.details["height"]
 
-    def stub(presses):  # path_press (m) by the path's grasp height above the start's
-        def path_press(geometry, q, substeps, normal_z):
+    def stub(presses):  # (press, no side) (m) by the path's grasp height above the start's
+        def path_depths(geometry, q, substeps, normal_z, side_exclude=()):
             h = geometry.tool(q[-1])[0][2] - scene.shelf.top_height
-            return presses(h - base)
-        monkeypatch.setattr(grasp_height, "path_press", path_press)
+            return presses(h - base), 0.0
+        monkeypatch.setattr(grasp_height, "path_depths", path_depths)
 
     stub(lambda dh: 0.004)  # every height presses: the start
     chosen, record = grasp_height.choose_height(scene, start, config)
@@ -172,6 +172,40 @@ def test_the_clear_choice_prefers_a_path_off_every_box_then_one_that_does_not_pr
     assert chosen(lambda dh: (0.004, 0.0))[0] is start  # every path presses: the start
 
 
+def test_approach_offsets_turn_the_line_and_come_after_every_height(scene, monkeypatch):
+    from drake_clutter.planners.baseline import plan_baseline
+
+    config = load_config(None, ["physics.grasp_heights=[0.9]", "physics.approach_offsets=[0.06]",
+                                "physics.height_choice=clear"])
+    (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
+    found = grasp_height.height_candidates(scene, start, config)
+    assert list(found) == [(0.5, 0.0), (0.9, 0.0), (0.5, 0.06), (0.9, 0.06)]
+    assert found[(0.5, 0.0)] is start
+    assert found[(0.9, 0.06)].alpha == pytest.approx(0.36)
+    assert found[(0.9, 0.06)].details["height"] == pytest.approx(found[(0.9, 0.0)].details[
+        "height"])
+    geometry = ArmGeometry(scene, "capsules")
+
+    def direction(q):  # the gripper's approach axis at the pre-grasp, horizontal, unit
+        d = geometry.tool_axis(q[-1], 0)[0][:2]
+        return d / np.linalg.norm(d)
+
+    def turn(q):  # rad, from the start's approach
+        return np.arccos(np.clip(direction(q) @ direction(start.trajectory.q), -1.0, 1.0))
+
+    assert turn(found[(0.5, 0.06)].trajectory.q) == pytest.approx(0.06, abs=0.02)
+    assert turn(found[(0.9, 0.0)].trajectory.q) < 0.02
+
+    def path_depths(geometry, q, substeps, normal_z, side_exclude=()):
+        return 0.0, (0.0 if turn(q) > 0.03 else 0.01)  # only the turned lines are clear
+
+    monkeypatch.setattr(grasp_height, "path_depths", path_depths)
+    chosen, record = grasp_height.choose_height(scene, start, config)
+    assert record["chosen"] == "0.5 yaw +0.06" and chosen.alpha == pytest.approx(0.36)
+    assert record["candidates"]["0.5 yaw +0.06"]["yaw_offset"] == 0.06
+    assert record["candidates"]["0.9"]["side"] == 0.01
+
+
 @pytest.mark.parametrize("fractions", [[0.0], [1.2], [0.6, -0.1]])
 def test_grasp_heights_must_be_fractions_of_the_target(fractions):
     config = Config()
@@ -181,7 +215,8 @@ def test_grasp_heights_must_be_fractions_of_the_target(fractions):
 
 
 @pytest.mark.parametrize("field, value", [("press_tolerance", -0.001), ("press_substeps", 0),
-                                          ("side_tolerance", -0.001)])
+                                          ("side_tolerance", -0.001),
+                                          ("approach_offsets", (0.1, -0.7))])
 def test_the_press_checks_settings_are_checked(field, value):
     config = Config()
     config = replace(config, physics=replace(config.physics, **{field: value}))

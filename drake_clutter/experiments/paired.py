@@ -52,6 +52,24 @@ def row_kinds(row: dict) -> list[str]:
     return list(robust["kinds"]) if robust else [row["kind"]]
 
 
+def held_out_gain(physics_kinds: list[str], baseline_kinds: list[str]) -> float | None:
+    """What choosing between two plans by half of their common replays gains on the other
+    half: the plan with the higher success rate on the even replays (ties to the baseline)
+    read on the odd ones, minus the baseline there, averaged with the reverse. Unlike the
+    better plan's P(success) on all replays, this is not biased up by picking on the same
+    noise it reads. None unless both plans have the same K >= 2 replays."""
+    if len(physics_kinds) != len(baseline_kinds) or len(physics_kinds) < 2:
+        return None
+    ph = np.asarray([k == "success" for k in physics_kinds], dtype=float)
+    ba = np.asarray([k == "success" for k in baseline_kinds], dtype=float)
+    gains = []
+    for pick, read in ((slice(0, None, 2), slice(1, None, 2)),
+                       (slice(1, None, 2), slice(0, None, 2))):
+        chosen = ph if ph[pick].mean() > ba[pick].mean() else ba
+        gains.append(chosen[read].mean() - ba[read].mean())
+    return float(np.mean(gains))
+
+
 def row_grade(row: dict) -> tuple[int, int]:
     """`behaviour_grade` of a stored row (its kind and the boxes of its outcome)."""
     boxes = (row.get("outcome") or {}).get("boxes", [])
@@ -82,7 +100,8 @@ def _pair(configuration: str, r: dict, b: dict) -> dict:
             "physics_grade": gp, "verdict": verdict(gp, gb),
             "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
             "baseline_expected_grade": row_expected_grade(b),
-            "physics_expected_grade": row_expected_grade(r)}
+            "physics_expected_grade": row_expected_grade(r),
+            "held_out_gain": held_out_gain(row_kinds(r), row_kinds(b))}
 
 
 def bootstrap_interval(values, config: ReportConfig) -> tuple[float, float]:
@@ -118,12 +137,18 @@ def _mean_difference(pairs: list[dict], key: str, config: ReportConfig) -> dict:
 def _selection_ceiling(pairs: list[dict], config: ReportConfig) -> dict:
     """What a perfect choice between the two plans of each initialization would gain: the mean
     of max(physics, baseline) minus baseline P(success), with its bootstrap interval. The
-    bound on any selector that executes one of the two plans (a judge-free one included)."""
+    bound on any selector that executes one of the two plans (a judge-free one included);
+    biased up, as the max of two estimates is. Beside it the held-out ceiling
+    (`held_out_gain`, mean and interval over the pairs that have one; None where none does)."""
     gains = [max(p["physics_p_success"], p["baseline_p_success"]) - p["baseline_p_success"]
              for p in pairs]
     low, high = bootstrap_interval(gains, config)
+    held = [p["held_out_gain"] for p in pairs if p.get("held_out_gain") is not None]
+    held_low, held_high = bootstrap_interval(held, config) if held else (None, None)
     return {"p_success_ceiling": float(np.mean(gains)), "p_success_ceiling_ci_low": low,
-            "p_success_ceiling_ci_high": high}
+            "p_success_ceiling_ci_high": high,
+            "held_out_ceiling": float(np.mean(held)) if held else None,
+            "held_out_ceiling_ci_low": held_low, "held_out_ceiling_ci_high": held_high}
 
 
 def paired_comparison(rows: list[dict], settings: ReportConfig | None = None) -> list[dict]:
@@ -187,8 +212,9 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
     lines = ["| configuration | pairs | physics better | same | worse | kinematic failures "
              f"physics / baseline | sign test p | P(success) difference [{level} CI] | "
              f"Wilcoxon p | expected grade difference [{level} CI] | Wilcoxon p | "
-             f"P(success) gain of the better plan of each pair [{level} CI] |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+             f"P(success) gain of the better plan of each pair [{level} CI] | "
+             f"the same, picked and read on different replays [{level} CI] |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in table:
         lines.append(f"| {r['configuration']} | {r['pairs']} | {r['better']} | {r['same']} | "
                      f"{r['worse']} | {r['physics_kinematic_failures']} / "
@@ -199,8 +225,16 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
                      f"{r['expected_grade_ci_high']:+.3f}] | "
                      f"{_p(r['expected_grade_wilcoxon_p'])} | "
                      f"{r['p_success_ceiling']:+.3f} [{r['p_success_ceiling_ci_low']:+.3f}, "
-                     f"{r['p_success_ceiling_ci_high']:+.3f}] |")
+                     f"{r['p_success_ceiling_ci_high']:+.3f}] | {_held_out(r)} |")
     return "\n".join(lines)
+
+
+def _held_out(r: dict) -> str:
+    """The held-out ceiling's cell: mean [interval], or "-" where no pair had replays."""
+    if r["held_out_ceiling"] is None:
+        return "-"
+    return (f"{r['held_out_ceiling']:+.3f} [{r['held_out_ceiling_ci_low']:+.3f}, "
+            f"{r['held_out_ceiling_ci_high']:+.3f}]")
 
 
 def scene_contributions(pairs: list[dict], top: int) -> list[dict]:

@@ -13,6 +13,7 @@ from drake_clutter.common.config import ReportConfig
 from drake_clutter.experiments.paired import (
     bootstrap_interval,
     configuration_comparison,
+    held_out_gain,
     markdown_paired,
     paired_comparison,
     paired_rows,
@@ -264,6 +265,36 @@ def test_the_selection_ceiling_takes_the_better_plan_of_each_pair():
     assert summary["p_success_ceiling_ci_low"] == pytest.approx(0.0)
     assert summary["p_success_ceiling_ci_high"] == pytest.approx(0.5)
     assert "+0.250 [+0.000, +0.500]" in markdown_paired([summary])
+
+
+def test_the_held_out_ceiling_picks_on_half_the_replays_and_reads_the_other_half():
+    # Physics succeeds in replays 0 and 2 (both even), the baseline in 1 and 3 (both odd):
+    # each half picks the plan that wins there and reads the other half, where it loses.
+    physics = ["success", "failure_to_grasp"] * 2
+    baseline = ["failure_to_grasp", "success"] * 2
+    assert held_out_gain(physics, baseline) == pytest.approx(-0.5)
+    # A plan better in every replay keeps its whole gain; a tie is read as the baseline.
+    assert held_out_gain(["success"] * 4, ["failure_to_grasp"] * 4) == pytest.approx(1.0)
+    assert held_out_gain(["success"] * 4, ["success"] * 4) == 0.0
+    # One replay, or replay counts that differ: no halves.
+    assert held_out_gain(["success"], ["failure_to_grasp"]) is None
+    assert held_out_gain(["success"] * 4, ["success"] * 2) is None
+    rows = [_robust_row("baseline", "a", 0, baseline), _robust_row("physics", "a", 0, physics),
+            _robust_row("baseline", "b", 0, ["failure_to_grasp"] * 4),
+            _robust_row("physics", "b", 0, ["success"] * 4)]
+    (summary,) = paired_comparison(rows)
+    assert summary["p_success_ceiling"] == pytest.approx((0.0 + 1.0) / 2)
+    assert summary["held_out_ceiling"] == pytest.approx((-0.5 + 1.0) / 2)
+    assert "+0.250 [-0.500, +1.000]" in markdown_paired([summary])
+
+
+def test_the_held_out_ceiling_is_blank_for_plans_judged_once():
+    rows = [{"config_name": "c", "scene": "a", "angle": 0, "planner": planner, "kind": kind,
+             "outcome": {"kind": kind}}
+            for planner, kind in (("baseline", "failure_to_grasp"), ("physics", "success"))]
+    (summary,) = paired_comparison(rows)
+    assert summary["held_out_ceiling"] is None
+    assert markdown_paired([summary]).splitlines()[-1].endswith("| - |")
 
 
 def test_a_report_setting_that_makes_no_sense_names_its_field(tmp_path, capsys):

@@ -504,11 +504,11 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "paired.csv. The differences are per initialization, physics minus baseline: "
             "P(success) (the robust judge's over its replays, else 1 or 0) and the expected "
             "grade class (lower is better), with a seeded percentile bootstrap interval. The "
-            "last column is the most any choice between the pair's two plans could gain over "
-            "the baseline (the better plan's P(success) minus the baseline's): the ceiling of "
-            "plan selection, judge-free or not. Picking the better of two noisy estimates "
-            "and reading the same estimates biases it up; the last column picks on the even "
-            "replays and reads the odd ones (and the reverse), which does not.", "",
+            "last two columns are the most any choice between the pair's two plans could gain "
+            "over the baseline (the better plan's P(success) minus the baseline's): the "
+            "ceiling of plan selection, judge-free or not. Picking the better of two noisy "
+            "estimates and reading the same estimates biases it up, so the last column picks "
+            "on the even replays and reads the odd ones (and the reverse).", "",
             markdown_paired(paired_comparison(rows, config), config), "", *against,
             "## Where the P(success) difference lies", "",
             "Per comparison above, the scenes whose initializations carry its mean P(success) "

@@ -305,7 +305,7 @@ def build_parser() -> argparse.ArgumentParser:
     exp_cmds = exp.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
     run = exp_cmds.add_parser("run", help="run a spec's missing units (resumable)")
     run.add_argument("spec", help="an experiment spec (YAML) or a tier: smoke, small, paper, "
-                     "behaviours, probe, probe_half")
+                     "behaviours, probe, probe_half, candidates")
     run.add_argument("--db", required=True, help="SQLite store to fill (created if absent)")
     run.add_argument("--workers", type=int, default=2, help="processes / Ray CPUs (default 2)")
     run.add_argument("--executor", choices=("local", "ray"), default="local")

@@ -58,15 +58,24 @@ def held_out_gain(physics_kinds: list[str], baseline_kinds: list[str]) -> float 
     read on the odd ones, minus the baseline there, averaged with the reverse. Unlike the
     better plan's P(success) on all replays, this is not biased up by picking on the same
     noise it reads. None unless both plans have the same K >= 2 replays."""
-    if len(physics_kinds) != len(baseline_kinds) or len(physics_kinds) < 2:
+    return held_out_choice_gain([baseline_kinds, physics_kinds])
+
+
+def held_out_choice_gain(candidates_kinds: list[list[str]]) -> float | None:
+    """`held_out_gain` over any number of plans of one initialization, the first the
+    reference: the plan with the highest success rate on the even replays (ties to the earlier
+    plan) read on the odd ones minus the reference there, averaged with the reverse. None
+    unless every plan has the same K >= 2 replays."""
+    k = len(candidates_kinds[0])
+    if k < 2 or any(len(kinds) != k for kinds in candidates_kinds):
         return None
-    ph = np.asarray([k == "success" for k in physics_kinds], dtype=float)
-    ba = np.asarray([k == "success" for k in baseline_kinds], dtype=float)
+    success = np.asarray([[kind == "success" for kind in kinds] for kinds in candidates_kinds],
+                         dtype=float)
     gains = []
     for pick, read in ((slice(0, None, 2), slice(1, None, 2)),
                        (slice(1, None, 2), slice(0, None, 2))):
-        chosen = ph if ph[pick].mean() > ba[pick].mean() else ba
-        gains.append(chosen[read].mean() - ba[read].mean())
+        chosen = int(np.argmax(success[:, pick].mean(axis=1)))  # first of the ties
+        gains.append(success[chosen, read].mean() - success[0, read].mean())
     return float(np.mean(gains))
 
 

@@ -42,6 +42,11 @@ import numpy as np
 
 from drake_clutter.common.config import BaselineConfig, ConfigError, ReportConfig
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS, scene_score
+from drake_clutter.experiments.candidates import (
+    candidate_ceiling,
+    candidate_rows,
+    markdown_candidates,
+)
 from drake_clutter.experiments.paired import (
     bootstrap_interval,
     configuration_comparison,
@@ -437,9 +442,10 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     (the three panels together), paired.csv (physics against the baseline per
     initialization), configurations.csv (every other physics configuration against the
     ``reference`` one per initialization; default the store's first, when it has two or more),
-    contributions.csv (`scene_contributions`), stages.csv (`stage_statistics`) and
-    smoothness.csv (`smoothness`) into ``out_dir``
-    (created); returns the paths by name. ``config``: the paired comparison's bootstrap settings."""
+    candidates.csv (each planner's configurations as candidates per initialization, when it
+    has two or more), contributions.csv (`scene_contributions`), stages.csv
+    (`stage_statistics`) and smoothness.csv (`smoothness`) into ``out_dir`` (created); returns
+    the paths by name. ``config``: the paired comparison's bootstrap settings."""
     config = config or ReportConfig()
     physics_configs = physics_configurations(rows)
     if reference is None and len(physics_configs) > 1:
@@ -473,6 +479,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
                    f"\"baseline\" `{reference}`. Per pair: configurations.csv.", "",
                    markdown_paired(configuration_comparison(rows, reference, config), config),
                    ""]
+    candidates = _candidates_section(rows, reference, config, out, paths)
     contributions = scene_contributions(pairs + reference_pairs, config.contribution_scenes)
     paths["contributions.csv"] = out / "contributions.csv"
     _write_csv(paths["contributions.csv"], contributions)
@@ -510,6 +517,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "estimates and reading the same estimates biases it up, so the last column picks "
             "on the even replays and reads the odd ones (and the reverse).", "",
             markdown_paired(paired_comparison(rows, config), config), "", *against,
+            *candidates,
             "## Where the P(success) difference lies", "",
             "Per comparison above, the scenes whose initializations carry its mean P(success) "
             "difference: each scene's share (its summed differences over the comparison's "
@@ -537,6 +545,24 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "configuration: smoothness.csv.", "", markdown_smoothness(smooth), ""]
     paths["report.md"].write_text("\n".join(text), encoding="utf-8")
     return paths
+
+
+def _candidates_section(rows, reference, config, out, paths) -> list[str]:
+    """The candidates' selection ceiling (`candidates`) as report lines, and candidates.csv;
+    nothing for a store with one configuration per planner."""
+    per_init = candidate_rows(rows, reference)
+    if not per_init:
+        return []
+    paths["candidates.csv"] = out / "candidates.csv"
+    _write_csv(paths["candidates.csv"], per_init)
+    return ["## Choosing among a planner's configurations", "",
+            "Each planner's plans of one initialization under the store's configurations, "
+            "taken as candidates: the most a choice among them could gain over the reference "
+            "configuration's plan (the best candidate's P(success) minus the reference's), on "
+            "all replays and, unbiased by the choice, picked on the even replays and read on "
+            "the odd ones (and the reverse). The bound on any rule that picks one of these "
+            "candidates, judge-free or not. Per initialization: candidates.csv.", "",
+            markdown_candidates(candidate_ceiling(rows, reference, config), config), ""]
 
 
 def scene_keys(rows: list[dict]) -> set[str]:

@@ -58,6 +58,7 @@ def test_tiers_load_and_expand():
     assert counts["behaviours"] == 4 * 6 * 2 * 2  # scenes x angles x planners x configurations
     assert counts["probe"] == 24 * 4 * 2  # scenes x angles x planners
     assert counts["probe_half"] == 24 * 2 * 2
+    assert counts["candidates"] == 4 * 6 * 15  # scenes x angles x configurations
 
 
 def test_probe_tier_draws_paper_scenes_at_four_levels_per_environment_robustly():

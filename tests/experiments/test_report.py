@@ -10,9 +10,15 @@ import pytest
 
 from drake_clutter.cli import main
 from drake_clutter.common.config import ReportConfig
+from drake_clutter.experiments.candidates import (
+    candidate_ceiling,
+    candidate_rows,
+    markdown_candidates,
+)
 from drake_clutter.experiments.paired import (
     bootstrap_interval,
     configuration_comparison,
+    held_out_choice_gain,
     held_out_gain,
     markdown_paired,
     paired_comparison,
@@ -442,3 +448,52 @@ def test_smoothness_reads_each_plans_largest_kink_per_configuration_and_planner(
     assert table["physics"]["plans"] == 2
     assert table["physics"]["kink_median"] == pytest.approx(0.2)
     assert table["physics"]["kink_max"] == pytest.approx(0.4)
+
+
+def _candidate(config, scene, angle, kinds):
+    return {**_robust_row("baseline", scene, angle, kinds), "config_name": config}
+
+
+def test_the_candidates_ceiling_picks_among_all_configurations_of_a_planner():
+    fail, ok = "failure_to_grasp", "success"
+    rows = [  # initialization a: h2 wins on the even replays, h3 on the odd ones
+        _candidate("h1", "a", 0, [fail] * 4), _candidate("h2", "a", 0, [ok, fail, ok, fail]),
+        _candidate("h3", "a", 0, [fail, ok, fail, ok]),
+        # b: h3 better in every replay; h2 missing there
+        _candidate("h1", "b", 0, [fail] * 4), _candidate("h3", "b", 0, [ok] * 4),
+        # c: no reference plan, left out
+        _candidate("h2", "c", 0, [ok] * 4)]
+    per_init = {r["scene"]: r for r in candidate_rows(rows)}
+    assert set(per_init) == {"a", "b"}
+    assert per_init["a"]["gain"] == pytest.approx(0.5)  # in-sample: the best on all replays
+    assert per_init["a"]["held_out_gain"] == pytest.approx(0.0)  # each pick loses its half
+    assert per_init["b"]["best_configuration"] == "h3" and per_init["b"]["candidates"] == 2
+    assert per_init["b"]["held_out_gain"] == pytest.approx(1.0)
+    (summary,) = candidate_ceiling(rows)
+    assert (summary["reference"], summary["configurations"], summary["initializations"]) == (
+        "h1", 3, 2)
+    assert summary["ceiling"] == pytest.approx(0.75)
+    assert summary["held_out_ceiling"] == pytest.approx(0.5)
+    assert "| baseline | h1 | 3 | 2 | 0.000 | +0.750 [" in markdown_candidates([summary])
+    # Another reference: the gains are read against it.
+    assert candidate_rows(rows, "h3")[0]["reference"] == "h3"
+    # A tie on the picking half goes to the earlier candidate (the reference first).
+    assert held_out_choice_gain([[ok, ok], [ok, ok]]) == 0.0
+    assert held_out_choice_gain([[ok, ok], [ok]]) is None
+
+
+@pytest.mark.filterwarnings("ignore:No artists with labels")  # no fridge scene: empty Fig. 9b
+def test_the_report_shows_the_candidates_ceiling_only_for_several_configurations(tmp_path):
+    rows = _fill_two_configurations(tmp_path / "c.db")
+    table = {r["planner"]: r for r in candidate_ceiling(rows)}
+    assert table["physics"]["ceiling"] == pytest.approx(1 / 3)  # search wins at angle 0
+    assert table["baseline"]["ceiling"] == 0.0  # the same failure under both
+    out = tmp_path / "report"
+    assert main(["report", str(tmp_path / "c.db"), "--out", str(out)]) == 0
+    assert "Choosing among a planner's configurations" in (out / "report.md").read_text()
+    with (out / "candidates.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == 6  # 3 initializations x 2 planners
+    _fill(tmp_path / "r.db")
+    assert main(["report", str(tmp_path / "r.db"), "--out", str(tmp_path / "one")]) == 0
+    assert "Choosing among" not in (tmp_path / "one" / "report.md").read_text()
+    assert not (tmp_path / "one" / "candidates.csv").exists()

@@ -57,16 +57,20 @@ def held_out_gain(physics_kinds: list[str], baseline_kinds: list[str]) -> float 
     half: the plan with the higher success rate on the even replays (ties to the baseline)
     read on the odd ones, minus the baseline there, averaged with the reverse. Unlike the
     better plan's P(success) on all replays, this is not biased up by picking on the same
-    noise it reads. None unless both plans have the same K >= 2 replays."""
+    noise it reads. None unless both plans have the same K >= 2 replays (a missing plan fails
+    in every replay)."""
     return held_out_choice_gain([baseline_kinds, physics_kinds])
 
 
 def held_out_choice_gain(candidates_kinds: list[list[str]]) -> float | None:
     """`held_out_gain` over any number of plans of one initialization, the first the
     reference: the plan with the highest success rate on the even replays (ties to the earlier
-    plan) read on the odd ones minus the reference there, averaged with the reverse. None
-    unless every plan has the same K >= 2 replays."""
-    k = len(candidates_kinds[0])
+    plan) read on the odd ones minus the reference there, averaged with the reverse. A
+    candidate without a plan (its one kind ``planner_failure``) fails in every replay. None
+    unless every other plan has the same K >= 2 replays."""
+    k = max(len(kinds) for kinds in candidates_kinds)
+    candidates_kinds = [kinds * k if kinds == ["planner_failure"] else kinds
+                        for kinds in candidates_kinds]
     if k < 2 or any(len(kinds) != k for kinds in candidates_kinds):
         return None
     success = np.asarray([[kind == "success" for kind in kinds] for kinds in candidates_kinds],

@@ -480,6 +480,9 @@ def test_the_candidates_ceiling_picks_among_all_configurations_of_a_planner():
     # A tie on the picking half goes to the earlier candidate (the reference first).
     assert held_out_choice_gain([[ok, ok], [ok, ok]]) == 0.0
     assert held_out_choice_gain([[ok, ok], [ok]]) is None
+    # A candidate without a plan fails in every replay: never picked, never a lost half.
+    assert held_out_choice_gain([["planner_failure"], [ok, ok]]) == pytest.approx(1.0)
+    assert held_out_choice_gain([[ok, fail], ["planner_failure"]]) == pytest.approx(0.0)
 
 
 @pytest.mark.filterwarnings("ignore:No artists with labels")  # no fridge scene: empty Fig. 9b

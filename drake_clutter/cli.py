@@ -214,7 +214,6 @@ def _cmd_experiment_run(args) -> int:
 def _cmd_report(args) -> int:
     from drake_clutter.experiments.report import (
         check_report_config,
-        physics_configurations,
         write_report,
     )
     from drake_clutter.experiments.store import Store
@@ -223,9 +222,9 @@ def _cmd_report(args) -> int:
     check_report_config(config.report, args.config or "<command line>")
     with Store(args.db, create=False) as store:
         rows = store.rows()
-    configs = physics_configurations(rows)
+    configs = list(dict.fromkeys(r["config_name"] for r in rows))
     if args.against is not None and args.against not in configs:
-        raise InputError(str(args.db), "--against", f"no physics configuration "
+        raise InputError(str(args.db), "--against", f"no configuration "
                          f"{args.against!r} in the store (it has: {', '.join(configs) or 'none'})")
     paths = write_report(rows, args.out, source=str(args.db), config=config.report,
                          reference=args.against)
@@ -330,7 +329,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("db", help="an experiment store (SQLite)")
     rep.add_argument("--out", required=True, help="directory for the Markdown, CSV and PNGs")
     rep.add_argument("--against", metavar="CONFIGURATION",
-                     help="compare every other physics configuration with this one per "
+                     help="compare every other configuration with this one per "
                           "initialization (default: the store's first, when it has two)")
     _add_config_args(rep)
     rep.set_defaults(func=_cmd_report)

@@ -445,11 +445,14 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     candidates.csv (each planner's configurations as candidates per initialization, when it
     has two or more), contributions.csv (`scene_contributions`), stages.csv
     (`stage_statistics`) and smoothness.csv (`smoothness`) into ``out_dir`` (created); returns
-    the paths by name. ``config``: the paired comparison's bootstrap settings."""
+    the paths by name. ``config``: the paired comparison's bootstrap settings; ``reference``:
+    the configuration the others are read against (the physics comparison takes it only if it
+    has physics plans, else the store's first physics configuration)."""
     config = config or ReportConfig()
     physics_configs = physics_configurations(rows)
-    if reference is None and len(physics_configs) > 1:
-        reference = physics_configs[0]
+    physics_reference = reference if reference in physics_configs else None
+    if physics_reference is None and len(physics_configs) > 1:
+        physics_reference = physics_configs[0]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t3, t4, f9 = table_iii(rows), table_iv(rows), fig9_data(rows)
@@ -468,16 +471,18 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     pairs = paired_rows(rows)
     _write_csv(paths["paired.csv"], pairs)
     against, reference_pairs = [], []
-    if reference is not None:
+    if physics_reference is not None:
         paths["configurations.csv"] = out / "configurations.csv"
-        reference_pairs = configuration_rows(rows, reference)
+        reference_pairs = configuration_rows(rows, physics_reference)
         _write_csv(paths["configurations.csv"], reference_pairs)
         against = ["## Physics configurations against each other", "",
-                   f"Each other configuration's physics plan against the `{reference}` "
+                   "Each other configuration's physics plan against the "
+                   f"`{physics_reference}` "
                    "configuration's at the same scene and angle (the same initialization): "
                    "the columns read as above, \"physics\" the other configuration and "
-                   f"\"baseline\" `{reference}`. Per pair: configurations.csv.", "",
-                   markdown_paired(configuration_comparison(rows, reference, config), config),
+                   f"\"baseline\" `{physics_reference}`. Per pair: configurations.csv.", "",
+                   markdown_paired(configuration_comparison(rows, physics_reference, config),
+                                   config),
                    ""]
     candidates = _candidates_section(rows, reference, config, out, paths)
     contributions = scene_contributions(pairs + reference_pairs, config.contribution_scenes)

@@ -500,3 +500,20 @@ def test_the_report_shows_the_candidates_ceiling_only_for_several_configurations
     assert main(["report", str(tmp_path / "r.db"), "--out", str(tmp_path / "one")]) == 0
     assert "Choosing among" not in (tmp_path / "one" / "report.md").read_text()
     assert not (tmp_path / "one" / "candidates.csv").exists()
+
+
+@pytest.mark.filterwarnings("ignore:No artists with labels")  # no fridge scene: empty Fig. 9b
+def test_against_may_name_a_configuration_of_the_baseline_alone(tmp_path):
+    fail, ok = "failure_to_grasp", "success"
+    with Store(tmp_path / "b.db") as store:
+        for config, kinds in (("h1", [fail] * 4), ("h2", [ok] * 4)):
+            row = _candidate(config, "fig5", 0, kinds)
+            unit = {"scene": "fig5", "planner": "baseline", "angle": 0, "config_hash": config,
+                    "config_name": config, "kind": "bookshelf", "num_objects": 3}
+            store.put(unit, {"alpha": 0.0, "outcome": row["outcome"], "plan": {"status": "ok"},
+                             "timings": {}, "error": ""})
+    out = tmp_path / "report"
+    assert main(["report", str(tmp_path / "b.db"), "--out", str(out), "--against", "h2"]) == 0
+    text = (out / "report.md").read_text()
+    assert "| baseline | h2 | 2 | 1 | 1.000 | +0.000 [" in text
+    assert "against each other" not in text  # no physics plans to compare

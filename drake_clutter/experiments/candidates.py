@@ -16,7 +16,9 @@ import numpy as np
 from drake_clutter.common.config import ReportConfig
 from drake_clutter.experiments.paired import (
     bootstrap_interval,
+    held_out_cell,
     held_out_choice_gain,
+    held_out_summary,
     row_kinds,
     row_p_success,
 )
@@ -55,21 +57,17 @@ def _initialization(planner, scene, angle, ref, plans, configs) -> dict:
             "held_out_gain": held_out_choice_gain([row_kinds(plans[c]) for c in order])}
 
 
-def candidate_ceiling(rows: list[dict], reference: str | None = None,
-                      settings: ReportConfig | None = None) -> list[dict]:
-    """Per planner with two or more configurations: its configurations, the initializations
+def candidate_ceiling(per_init: list[dict], settings: ReportConfig | None = None) -> list[dict]:
+    """Per planner of `candidate_rows`' ``per_init``: its configurations, the initializations
     with the reference's plan, the reference's mean P(success), and the mean gain of the best
-    candidate on all replays and held out, each with its bootstrap interval (``settings``);
-    the held-out figures are None where no initialization has equal K >= 2 replays."""
+    candidate on all replays and held out (`paired.held_out_summary`), each with its bootstrap
+    interval (``settings``)."""
     settings = settings or ReportConfig()
-    per_init = candidate_rows(rows, reference)
     out = []
     for planner in dict.fromkeys(r["planner"] for r in per_init):
         mine = [r for r in per_init if r["planner"] == planner]
         gains = [r["gain"] for r in mine]
-        held = [r["held_out_gain"] for r in mine if r["held_out_gain"] is not None]
         low, high = bootstrap_interval(gains, settings)
-        held_low, held_high = bootstrap_interval(held, settings) if held else (None, None)
         out.append({"planner": planner, "reference": mine[0]["reference"],
                     "configurations": max(r["candidates"] for r in mine),
                     "initializations": len(mine),
@@ -77,8 +75,7 @@ def candidate_ceiling(rows: list[dict], reference: str | None = None,
                                                           for r in mine])),
                     "ceiling": float(np.mean(gains)), "ceiling_ci_low": low,
                     "ceiling_ci_high": high,
-                    "held_out_ceiling": float(np.mean(held)) if held else None,
-                    "held_out_ceiling_ci_low": held_low, "held_out_ceiling_ci_high": held_high})
+                    **held_out_summary([r["held_out_gain"] for r in mine], settings)})
     return out
 
 
@@ -90,11 +87,8 @@ def markdown_candidates(table: list[dict], config: ReportConfig | None = None) -
              f"different replays [{level} CI] |",
              "|---|---|---:|---:|---:|---:|---:|"]
     for r in table:
-        held = ("-" if r["held_out_ceiling"] is None else
-                f"{r['held_out_ceiling']:+.3f} [{r['held_out_ceiling_ci_low']:+.3f}, "
-                f"{r['held_out_ceiling_ci_high']:+.3f}]")
         lines.append(f"| {r['planner']} | {r['reference']} | {r['configurations']} | "
                      f"{r['initializations']} | {r['reference_p_success']:.3f} | "
                      f"{r['ceiling']:+.3f} [{r['ceiling_ci_low']:+.3f}, "
-                     f"{r['ceiling_ci_high']:+.3f}] | {held} |")
+                     f"{r['ceiling_ci_high']:+.3f}] | {held_out_cell(r)} |")
     return "\n".join(lines)

@@ -156,12 +156,21 @@ def _selection_ceiling(pairs: list[dict], config: ReportConfig) -> dict:
     gains = [max(p["physics_p_success"], p["baseline_p_success"]) - p["baseline_p_success"]
              for p in pairs]
     low, high = bootstrap_interval(gains, config)
-    held = [p["held_out_gain"] for p in pairs if p.get("held_out_gain") is not None]
-    held_low, held_high = bootstrap_interval(held, config) if held else (None, None)
     return {"p_success_ceiling": float(np.mean(gains)), "p_success_ceiling_ci_low": low,
             "p_success_ceiling_ci_high": high,
-            "held_out_ceiling": float(np.mean(held)) if held else None,
-            "held_out_ceiling_ci_low": held_low, "held_out_ceiling_ci_high": held_high}
+            **held_out_summary([p.get("held_out_gain") for p in pairs], config)}
+
+
+def held_out_summary(gains: list[float | None], config: ReportConfig) -> dict:
+    """The held-out ceiling: the mean of the held-out gains that are not None and its
+    bootstrap interval (``held_out_ceiling``, ``_ci_low``, ``_ci_high``); all None when none is."""
+    held = [g for g in gains if g is not None]
+    if not held:
+        return {"held_out_ceiling": None, "held_out_ceiling_ci_low": None,
+                "held_out_ceiling_ci_high": None}
+    low, high = bootstrap_interval(held, config)
+    return {"held_out_ceiling": float(np.mean(held)), "held_out_ceiling_ci_low": low,
+            "held_out_ceiling_ci_high": high}
 
 
 def paired_comparison(rows: list[dict], settings: ReportConfig | None = None) -> list[dict]:
@@ -238,11 +247,11 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
                      f"{r['expected_grade_ci_high']:+.3f}] | "
                      f"{_p(r['expected_grade_wilcoxon_p'])} | "
                      f"{r['p_success_ceiling']:+.3f} [{r['p_success_ceiling_ci_low']:+.3f}, "
-                     f"{r['p_success_ceiling_ci_high']:+.3f}] | {_held_out(r)} |")
+                     f"{r['p_success_ceiling_ci_high']:+.3f}] | {held_out_cell(r)} |")
     return "\n".join(lines)
 
 
-def _held_out(r: dict) -> str:
+def held_out_cell(r: dict) -> str:
     """The held-out ceiling's cell: mean [interval], or "-" where no pair had replays."""
     if r["held_out_ceiling"] is None:
         return "-"

@@ -567,7 +567,7 @@ def _candidates_section(rows, reference, config, out, paths) -> list[str]:
             "all replays and, unbiased by the choice, picked on the even replays and read on "
             "the odd ones (and the reverse). The bound on any rule that picks one of these "
             "candidates, judge-free or not. Per initialization: candidates.csv.", "",
-            markdown_candidates(candidate_ceiling(rows, reference, config), config), ""]
+            markdown_candidates(candidate_ceiling(per_init, config), config), ""]
 
 
 def scene_keys(rows: list[dict]) -> set[str]:

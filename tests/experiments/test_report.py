@@ -469,7 +469,7 @@ def test_the_candidates_ceiling_picks_among_all_configurations_of_a_planner():
     assert per_init["a"]["held_out_gain"] == pytest.approx(0.0)  # each pick loses its half
     assert per_init["b"]["best_configuration"] == "h3" and per_init["b"]["candidates"] == 2
     assert per_init["b"]["held_out_gain"] == pytest.approx(1.0)
-    (summary,) = candidate_ceiling(rows)
+    (summary,) = candidate_ceiling(candidate_rows(rows))
     assert (summary["reference"], summary["configurations"], summary["initializations"]) == (
         "h1", 3, 2)
     assert summary["ceiling"] == pytest.approx(0.75)
@@ -488,7 +488,7 @@ def test_the_candidates_ceiling_picks_among_all_configurations_of_a_planner():
 @pytest.mark.filterwarnings("ignore:No artists with labels")  # no fridge scene: empty Fig. 9b
 def test_the_report_shows_the_candidates_ceiling_only_for_several_configurations(tmp_path):
     rows = _fill_two_configurations(tmp_path / "c.db")
-    table = {r["planner"]: r for r in candidate_ceiling(rows)}
+    table = {r["planner"]: r for r in candidate_ceiling(candidate_rows(rows))}
     assert table["physics"]["ceiling"] == pytest.approx(1 / 3)  # search wins at angle 0
     assert table["baseline"]["ceiling"] == 0.0  # the same failure under both
     out = tmp_path / "report"

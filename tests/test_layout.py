@@ -30,6 +30,7 @@ ALLOWED = {
     "evaluation": BASE | {"worlds"},
     "experiments": BASE | {"worlds", "solvers", "phi", "planners", "evaluation"},
     "viz": BASE | {"worlds", "evaluation"},
+    "conformance": BASE | {"worlds", "phi"},
     "testing": BASE | {"worlds", "solvers", "phi", "planners", "evaluation"},
     "cli": BASE | {"worlds", "solvers", "phi", "planners", "evaluation", "experiments", "viz"},
 }

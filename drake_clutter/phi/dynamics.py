@@ -177,6 +177,25 @@ def point_contact_geometry(config: DynamicsConfig) -> PointContactBoxes | None:
                              box_shape=config.contact_model == "point")
 
 
+def cap_box_speeds(values: np.ndarray, box_v: np.ndarray, config: DynamicsConfig) -> np.ndarray:
+    """A plant's discrete state [q, v] with every box's angular and translational speed scaled
+    down to ``max_box_spin`` / ``max_box_speed`` (continuous; a no-op below them): keeps a
+    violently thrown box finite (see the config's comment). ``box_v`` (n, 6) indexes each
+    box's (w_WB, v_WB) in ``values``; phi applies it after every sub-step."""
+    if not len(box_v):
+        return values
+    v = values[box_v]
+    spin = np.linalg.norm(v[:, :3], axis=1)
+    speed = np.linalg.norm(v[:, 3:], axis=1)
+    if np.all(spin <= config.max_box_spin) and np.all(speed <= config.max_box_speed):
+        return values
+    values = values.copy()
+    v[:, :3] *= np.minimum(1.0, config.max_box_spin / np.maximum(spin, 1e-300))[:, None]
+    v[:, 3:] *= np.minimum(1.0, config.max_box_speed / np.maximum(speed, 1e-300))[:, None]
+    values[box_v] = v
+    return values
+
+
 # ----------------------------------------------------------------------------- phi
 
 
@@ -348,22 +367,7 @@ class Phi:
         return x_next, edges, f / n
 
     def _speed_capped(self, values: np.ndarray) -> np.ndarray:
-        """The plant's discrete state [q, v] with every kept box's angular and translational
-        speed scaled down to ``max_box_spin`` / ``max_box_speed`` (continuous; a no-op below
-        them): keeps a violently thrown box finite (see the config's comment)."""
-        if not len(self._box_v):
-            return values
-        v = values[self._nq + self._box_v]  # (n, 6): w_WB, v_WB
-        cfg = self.spec.config
-        spin = np.linalg.norm(v[:, :3], axis=1)
-        speed = np.linalg.norm(v[:, 3:], axis=1)
-        if np.all(spin <= cfg.max_box_spin) and np.all(speed <= cfg.max_box_speed):
-            return values
-        values = values.copy()
-        v[:, :3] *= np.minimum(1.0, cfg.max_box_spin / np.maximum(spin, 1e-300))[:, None]
-        v[:, 3:] *= np.minimum(1.0, cfg.max_box_speed / np.maximum(speed, 1e-300))[:, None]
-        values[self._nq + self._box_v] = v
-        return values
+        return cap_box_speeds(values, self._nq + self._box_v, self.spec.config)
 
     def contact_forces(self, shelf_sum: np.ndarray | None = None) -> np.ndarray:
         """Contact forces of the SAP step from the current plant state, per node (N, shape

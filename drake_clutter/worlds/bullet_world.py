@@ -99,7 +99,9 @@ class BulletWorld:
         self.close()
 
 
-def _engine(config: EvaluationConfig) -> int:
+def new_client(config: EvaluationConfig) -> int:
+    """A fresh pybullet DIRECT client with the judge's engine settings (time step, solver
+    iterations, contact breaking threshold, cone friction, deterministic pairs) and gravity."""
     client = pb.connect(pb.DIRECT)
     pb.resetSimulation(physicsClientId=client)
     pb.setGravity(0.0, 0.0, -GRAVITY, physicsClientId=client)
@@ -110,7 +112,8 @@ def _engine(config: EvaluationConfig) -> int:
     return client
 
 
-def _add_shelf(client: int, scene: Scene) -> int:
+def add_shelf(client: int, scene: Scene, friction: float = SHELF_FRICTION) -> int:
+    """The scene's shelf as one static body (board, walls), lateral friction ``friction``."""
     shelf = scene.shelf
     parts = shelf_boxes(shelf)
     shape = pb.createCollisionShapeArray(
@@ -118,7 +121,7 @@ def _add_shelf(client: int, scene: Scene) -> int:
         collisionFramePositions=[list(centre) for _, centre, _ in parts], physicsClientId=client)
     body = pb.createMultiBody(0.0, shape, -1, [*shelf.center_xy, shelf.top_height],
                               useMaximalCoordinates=True, physicsClientId=client)
-    pb.changeDynamics(body, -1, lateralFriction=SHELF_FRICTION, physicsClientId=client)
+    pb.changeDynamics(body, -1, lateralFriction=friction, physicsClientId=client)
     return body
 
 
@@ -130,7 +133,9 @@ def _add_floor(client: int) -> int:
     return body
 
 
-def _add_boxes(client: int, scene: Scene) -> tuple[int, ...]:
+def add_boxes(client: int, scene: Scene) -> tuple[int, ...]:
+    """The scene's boxes as free bodies resting on the board (scene order): mass, the box's
+    friction, no restitution, no velocity damping."""
     ids = []
     for box in scene.boxes:
         shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=[s / 2 for s in box.size],
@@ -168,11 +173,11 @@ def build_bullet_world(scene: Scene, config: EvaluationConfig | None = None) -> 
     """A fresh pybullet DIRECT world of ``scene``: shelf, floor, boxes at rest, the arm parked
     at zero joint angles with the torso at the scene's lift (see the module docstring)."""
     config = config or EvaluationConfig()
-    client = _engine(config)
+    client = new_client(config)
     try:
         robot, motor_joints, tool_link, links = _add_robot(client, scene, config)
-        world = BulletWorld(client, scene, robot, _add_shelf(client, scene), _add_floor(client),
-                            _add_boxes(client, scene), tuple(b.name for b in scene.boxes),
+        world = BulletWorld(client, scene, robot, add_shelf(client, scene), _add_floor(client),
+                            add_boxes(client, scene), tuple(b.name for b in scene.boxes),
                             np.array([b.mass for b in scene.boxes]), motor_joints, tool_link,
                             links)
     except BaseException:

@@ -26,6 +26,7 @@ from pydrake.geometry import (
     AddContactMaterial,
     AddRigidHydroelasticProperties,
     Box,
+    Capsule,
     CollisionFilterDeclaration,
     GeometrySet,
     ProximityProperties,
@@ -43,6 +44,7 @@ from pydrake.multibody.tree import (
     JointActuatorIndex,
     ModelInstanceIndex,
     PdControllerGains,
+    PrismaticJoint,
     SpatialInertia,
 )
 from pydrake.planning import RobotDiagram, RobotDiagramBuilder
@@ -148,9 +150,10 @@ def _add_robot(builder: RobotDiagramBuilder, scene: Scene, variant: str) -> Mode
     return robot
 
 
-def _add_shelf(builder: RobotDiagramBuilder, scene: Scene) -> ModelInstanceIndex:
+def _add_shelf(builder: RobotDiagramBuilder, scene: Scene,
+               friction: float = SHELF_FRICTION) -> ModelInstanceIndex:
     plant = builder.plant()
-    (shelf,) = builder.parser().AddModelsFromString(shelf_sdf(scene.shelf), "sdf")
+    (shelf,) = builder.parser().AddModelsFromString(shelf_sdf(scene.shelf, friction), "sdf")
     cx, cy = scene.shelf.center_xy
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(SHELF_LINK, shelf),
                      RigidTransform([cx, cy, scene.shelf.top_height]))
@@ -331,6 +334,42 @@ def _filter_point_contact_pairs(parts: dict, plant: MultibodyPlant, scene_graph,
         .ExcludeBetween(box_shapes, _geometries(plant, parts["shelf"])))
 
 
+def _dynamics_builder(config: WorldConfig,
+                      point_contact: PointContactBoxes | None) -> RobotDiagramBuilder:
+    """A diagram builder whose discrete plant has phi's contact settings (approximation,
+    near-rigid threshold, hydroelastic or point contact)."""
+    builder = RobotDiagramBuilder(time_step=config.time_step)
+    plant = builder.plant()
+    plant.set_discrete_contact_approximation({
+        "sap": DiscreteContactApproximation.kSap,
+        "similar": DiscreteContactApproximation.kSimilar,
+        "lagged": DiscreteContactApproximation.kLagged}[config.contact_approximation])
+    plant.set_sap_near_rigid_threshold(config.near_rigid_threshold)
+    plant.set_contact_model(ContactModel.kHydroelasticWithFallback if point_contact is None
+                            else ContactModel.kPoint)
+    return builder
+
+
+def _filter_actor_contact(builder: RobotDiagramBuilder, parts: dict, config: WorldConfig,
+                          point_contact: PointContactBoxes | None) -> GeometrySet:
+    """phi's collision rules for the actor (the arm, or a scripted pusher) in ``parts["robot"]``
+    after Finalize: its own parts never touch; with point contact the corner spheres alone
+    meet the shelf; else with ``config.robot_hydroelastic`` it is rigid hydroelastic and does not
+    touch the shelf. Returns the actor's geometry."""
+    plant, scene_graph = builder.plant(), builder.scene_graph()
+    robot_geometry = _geometries(plant, parts["robot"])
+    scene_graph.collision_filter_manager().Apply(
+        CollisionFilterDeclaration().ExcludeWithin(robot_geometry))
+    if point_contact is not None:
+        _filter_point_contact_pairs(parts, plant, scene_graph, point_contact)
+    elif config.robot_hydroelastic:
+        _make_rigid_hydroelastic(plant, scene_graph, parts["robot"], config)
+        scene_graph.collision_filter_manager().Apply(
+            CollisionFilterDeclaration().ExcludeBetween(robot_geometry,
+                                                        _geometries(plant, parts["shelf"])))
+    return robot_geometry
+
+
 def build_dynamics_world(scene: Scene, variant: str = "capsules",
                          config: WorldConfig | None = None, meshcat=None, *,
                          frozen_boxes: Mapping[str, RigidTransform] | None = None,
@@ -346,30 +385,14 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
     The arm passes through the boxes named in ``arm_passes`` (they still touch everything else).
     """
     config = config or WorldConfig()
-    builder = RobotDiagramBuilder(time_step=config.time_step)
+    builder = _dynamics_builder(config, point_contact)
     plant = builder.plant()
-    plant.set_discrete_contact_approximation({
-        "sap": DiscreteContactApproximation.kSap,
-        "similar": DiscreteContactApproximation.kSimilar,
-        "lagged": DiscreteContactApproximation.kLagged}[config.contact_approximation])
-    plant.set_sap_near_rigid_threshold(config.near_rigid_threshold)
-    plant.set_contact_model(ContactModel.kHydroelasticWithFallback if point_contact is None
-                            else ContactModel.kPoint)
     parts = _new_world(builder, scene, variant, config, True, frozen_boxes, point_contact)
     plant.set_gravity_enabled(parts["robot"], False)
     _make_pd_actuators(plant, parts["robot"], config)
     plant.SetUseSampledOutputPorts(False)
     plant.Finalize()
-    robot_geometry = _geometries(plant, parts["robot"])
-    builder.scene_graph().collision_filter_manager().Apply(
-        CollisionFilterDeclaration().ExcludeWithin(robot_geometry))
-    if point_contact is not None:
-        _filter_point_contact_pairs(parts, plant, builder.scene_graph(), point_contact)
-    elif config.robot_hydroelastic:
-        _make_rigid_hydroelastic(plant, builder.scene_graph(), parts["robot"], config)
-        builder.scene_graph().collision_filter_manager().Apply(
-            CollisionFilterDeclaration().ExcludeBetween(robot_geometry,
-                                                        _geometries(plant, parts["shelf"])))
+    robot_geometry = _filter_actor_contact(builder, parts, config, point_contact)
     if arm_passes:
         passed = GeometrySet([g for name in arm_passes for g in plant.GetCollisionGeometriesForBody(
             plant.GetBodyByName(name, parts["boxes"]))])
@@ -379,6 +402,70 @@ def build_dynamics_world(scene: Scene, variant: str = "capsules",
         _add_meshcat(builder, meshcat)
     diagram = builder.Build()
     return World(scene, variant, diagram, plant, parts["robot"], parts["shelf"], parts["boxes"],
+                 tuple(b.name for b in scene.boxes))
+
+
+PUSHER_JOINTS = ("pusher_x", "pusher_y", "pusher_z")
+
+
+@dataclass(frozen=True)
+class CapsulePusher:
+    """A scripted pusher for phi's world: a horizontal capsule (axis along W's y) on three
+    prismatic joints along W's x, y, z, each a PD servo with the arm's gains (``arm_kp`` N/m,
+    ``arm_kd`` N s/m), no gravity; its joint positions are its centre in W."""
+
+    radius: float  # m
+    length: float  # m, the cylinder's length along y
+    friction: float  # Coulomb coefficient in Drake
+    mass: float = 1.0  # kg, of the capsule (each carriage weighs a tenth of it)
+
+
+def _add_pusher(builder: RobotDiagramBuilder, pusher: CapsulePusher,
+                config: WorldConfig) -> ModelInstanceIndex:
+    plant = builder.plant()
+    instance = plant.AddModelInstance("pusher")
+    parent = plant.world_frame()
+    for i, name in enumerate(PUSHER_JOINTS):
+        last = i == len(PUSHER_JOINTS) - 1
+        mass = pusher.mass if last else pusher.mass / 10
+        body = plant.AddRigidBody(f"{name}_body", instance,
+                                  SpatialInertia.SolidSphereWithMass(mass, pusher.radius))
+        axis = np.eye(3)[i]
+        joint = plant.AddJoint(PrismaticJoint(name, parent, body.body_frame(), axis))
+        actuator = plant.AddJointActuator(f"{name}_motor", joint)
+        actuator.set_controller_gains(PdControllerGains(p=config.arm_kp, d=config.arm_kd))
+        parent = body.body_frame()
+    props = ProximityProperties()
+    AddContactMaterial(friction=CoulombFriction(pusher.friction, pusher.friction),
+                       properties=props)
+    X_BG = RigidTransform(RollPitchYaw(np.pi / 2, 0.0, 0.0), [0.0, 0.0, 0.0])  # axis z -> y
+    plant.RegisterCollisionGeometry(body, X_BG, Capsule(pusher.radius, pusher.length),
+                                    "pusher_collision", props)
+    plant.RegisterVisualGeometry(body, X_BG, Capsule(pusher.radius, pusher.length),
+                                 "pusher_visual", np.array([0.3, 0.3, 0.35, 1.0]))
+    return instance
+
+
+def build_pusher_world(scene: Scene, pusher: CapsulePusher, config: WorldConfig | None = None,
+                       *, point_contact: PointContactBoxes | None = None,
+                       shelf_friction: float = SHELF_FRICTION) -> World:
+    """phi's world with a scripted capsule pusher in place of the arm (the contact conformance
+    suite): the same plant settings, box geometry, shelf and collision rules as
+    `build_dynamics_world`; the shelf's coefficient is ``shelf_friction``. The scene's robot
+    placement is ignored; `World.robot` is the pusher's instance (joints `PUSHER_JOINTS`)."""
+    config = config or WorldConfig()
+    builder = _dynamics_builder(config, point_contact)
+    plant = builder.plant()
+    shelf = _add_shelf(builder, scene, shelf_friction)
+    boxes, box_geometry = _add_boxes(builder, scene, config, True, None, point_contact)
+    parts = {"robot": _add_pusher(builder, pusher, config), "shelf": shelf, "boxes": boxes,
+             "box_geometry": box_geometry}
+    plant.set_gravity_enabled(parts["robot"], False)
+    plant.SetUseSampledOutputPorts(False)
+    plant.Finalize()
+    _filter_actor_contact(builder, parts, config, point_contact)
+    diagram = builder.Build()
+    return World(scene, "pusher", diagram, plant, parts["robot"], shelf, boxes,
                  tuple(b.name for b in scene.boxes))
 
 

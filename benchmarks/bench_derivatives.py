@@ -10,8 +10,12 @@ linearised serially and with the worker pool, and the brute-force horizon on the
 scene: its per-knot cost is (ndx + nu + 1) x the measured full-scene step time at that knot
 (summed over the horizon), checked against one real dense Jacobian at the middle knot.
 ``--validate`` adds the finite-difference vs AutoDiffXd comparison on phi as configured.
+``--compare FIELD=VALUE`` (repeatable) runs every level a second time with those overrides on
+top of the configuration, right after the first, so old and new phi are timed in the same run;
+``--no-brute-force`` leaves the brute-force columns out (they take minutes per level).
 
     python benchmarks/bench_derivatives.py [--levels 1 5 10] [--set dynamics.workers=2] [--validate]
+        [--compare dynamics.contact_model=edges] [--no-brute-force]
 
 Timings are wall-clock on whatever else the machine is running (the load average is printed).
 """
@@ -87,28 +91,33 @@ def _ours(scene, path, config, world, knot_time, pool):
     return row
 
 
-def run_levels(levels, seed, config, world, knot_time, num_knots, pool) -> None:
-    print(f"{'boxes':>5} {'kept':>4} {'step ms':>8} {'evals/knot':>10} {'AD knots':>8} "
-          f"{'brute':>5} "
+def run_levels(levels, seed, configs, knot_time, num_knots, pool, brute_force=True) -> None:
+    """One row per level and configuration; ``configs`` is a list of (label, Config)."""
+    print(f"{'config':>8} {'boxes':>5} {'kept':>4} {'step ms':>8} {'evals/knot':>10} "
+          f"{'AD knots':>8} {'brute':>5} "
           f"{'serial s':>8} {'par s':>6} {'par2 s':>6} {'brute s':>8} {'x serial':>8} "
           f"{'x par':>6} {'dense(mid) s meas/est':>22} {'prune s':>7}")
+    nan = float("nan")
     for n in levels:
         scene = generate_scene("bookshelf", n, seed=seed)
         path = straight_reach(scene, num_knots=num_knots)
         if path is None:
             print(f"{n:5d}  IK failed for the straight reach; skipped")
             continue
-        ours = _ours(scene, path, config, world, knot_time, pool)
-        brute = _brute_force(scene, path, config, world, knot_time)
-        best = np.nanmin([ours["serial"], ours["parallel"]])
-        print(f"{n:5d} {ours['kept']:4d} {1000 * ours['step']:8.1f} "
-              f"{ours['evals']:6.1f}/{ours['evals_max']:<3d} {ours['autodiff']:8d} "
-              f"{brute['columns']:5d} "
-              f"{ours['serial']:8.2f} {ours['parallel']:6.2f} {ours['parallel_again']:6.2f} "
-              f"{brute['horizon']:8.1f} {brute['horizon'] / ours['serial']:8.1f} "
-              f"{brute['horizon'] / best:6.1f} "
-              f"{brute['dense_mid']:10.1f}/{brute['dense_mid_estimate']:<10.1f} "
-              f"{ours['prune']:7.2f}", flush=True)
+        for label, config in configs:
+            config, world = config.dynamics, config.world
+            ours = _ours(scene, path, config, world, knot_time, pool)
+            brute = (_brute_force(scene, path, config, world, knot_time) if brute_force else
+                     {"columns": 0, "horizon": nan, "dense_mid": nan, "dense_mid_estimate": nan})
+            best = np.nanmin([ours["serial"], ours["parallel"]])
+            print(f"{label:>8} {n:5d} {ours['kept']:4d} {1000 * ours['step']:8.1f} "
+                  f"{ours['evals']:6.1f}/{ours['evals_max']:<3d} {ours['autodiff']:8d} "
+                  f"{brute['columns']:5d} "
+                  f"{ours['serial']:8.2f} {ours['parallel']:6.2f} {ours['parallel_again']:6.2f} "
+                  f"{brute['horizon']:8.1f} {brute['horizon'] / ours['serial']:8.1f} "
+                  f"{brute['horizon'] / best:6.1f} "
+                  f"{brute['dense_mid']:10.1f}/{brute['dense_mid_estimate']:<10.1f} "
+                  f"{ours['prune']:7.2f}", flush=True)
 
 
 def validate(config, world, knot_time, num_knots, seed) -> None:
@@ -140,6 +149,7 @@ def validate(config, world, knot_time, num_knots, seed) -> None:
             edges = dyn.phi.step_traced(xs[t], path[t + 1])[1]
             (contact if any(ARM_NODE in e for e in edges) else free).append(rel)
         contact = np.array(contact) if contact else np.array([np.nan])
+        free = np.array(free) if free else np.array([np.nan])
         print(f"  fd_step {step:g}: entry-wise relative error median {np.median(medians):.1e} "
               f"(worst knot {np.max(medians):.1e}); whole-Jacobian relative error: "
               f"{len(free)} free knots median {np.median(free):.1e} max {np.max(free):.1e}, "
@@ -156,8 +166,13 @@ def main(argv=None) -> int:
     parser.add_argument("--config")
     parser.add_argument("--set", dest="overrides", action="append", default=[])
     parser.add_argument("--validate", action="store_true")
+    parser.add_argument("--compare", action="append", default=[], metavar="FIELD=VALUE")
+    parser.add_argument("--no-brute-force", action="store_true")
     args = parser.parse_args(argv)
     config = load_config(args.config, args.overrides)
+    configs = [("base", config)]
+    if args.compare:
+        configs.append(("compare", load_config(args.config, args.overrides + args.compare)))
     dyn, knot_time = config.dynamics, config.baseline.knot_time
     num_knots = config.baseline.num_knots
     print(f"load average at start {os.getloadavg()[0]:.2f} (2 cores); {num_knots} knots of "
@@ -167,7 +182,8 @@ def main(argv=None) -> int:
           f"workers {dyn.workers}")
     pool = WorkerPool(dyn.workers) if dyn.workers > 0 else None
     try:
-        run_levels(args.levels, args.seed, dyn, config.world, knot_time, num_knots, pool)
+        run_levels(args.levels, args.seed, configs, knot_time, num_knots, pool,
+                   brute_force=not args.no_brute_force)
     finally:
         if pool is not None:
             pool.close()

@@ -39,10 +39,14 @@ class DynamicsConfig:
     workers: int = 2
     # SAP sub-steps of phi per knot (0.2 s knots / 10 = 20 ms), count; ours
     substeps: int = 10
-    # contact geometry of the boxes in phi ("point", "spheres", "hydroelastic"), choice; ours
-    contact_model: Literal["point", "spheres", "hydroelastic"] = "hydroelastic"
-    # radius of the spheres inside the box corners, m; ours
+    # box contact geometry in phi ("point", "spheres", "hydroelastic", "edges"), choice; ours
+    contact_model: Literal["point", "spheres", "hydroelastic", "edges"] = "hydroelastic"
+    # radius of the spheres inside the box corners ("point", "spheres"), m; ours
     corner_sphere_radius: float = 0.004
+    # radius of the spheres on the box edges that meet the shelf ("edges"), m; ours
+    edge_sphere_radius: float = 0.001
+    # largest gap between the spheres along a box edge ("edges"; 0: corners only), m; ours
+    edge_sphere_spacing: float = 0.02
     # bodies closer than this at a sub-step's start may interact in that step, m; ours
     interaction_margin: float = 1e-3
     # largest state change for which a resting box reuses its Jacobian block, m, rad, m/s; ours

@@ -144,6 +144,8 @@ def check_config(config: DynamicsConfig) -> None:
                                    and config.contact_model == "point"),
          "cannot be 'autodiff' with contact_model 'point' (no AutoDiffXd Box-Box queries)"),
         ("corner_sphere_radius", config.corner_sphere_radius > 0, "must be positive"),
+        ("edge_sphere_radius", config.edge_sphere_radius > 0, "must be positive"),
+        ("edge_sphere_spacing", config.edge_sphere_spacing >= 0, "must be >= 0"),
         ("interaction_margin", config.interaction_margin > 0, "must be positive"),
         ("known_block_tolerance", config.known_block_tolerance >= 0, "must be >= 0"),
         ("prune_margin", config.prune_margin >= 0, "must be >= 0"),
@@ -173,6 +175,9 @@ def point_contact_geometry(config: DynamicsConfig) -> PointContactBoxes | None:
     """The world's box geometry for ``config.contact_model``."""
     if config.contact_model == "hydroelastic":
         return None
+    if config.contact_model == "edges":
+        return PointContactBoxes(config.edge_sphere_radius, compliant_box=True,
+                                 edge_spacing=config.edge_sphere_spacing)
     return PointContactBoxes(config.corner_sphere_radius,
                              box_shape=config.contact_model == "point")
 
@@ -407,7 +412,7 @@ class Phi:
     def contact_margin(self) -> float:
         """m: pairs this far apart are already in SAP's contact problem (the hydroelastic
         boxes' margin; 0 for point contact, where only touching pairs are)."""
-        if self.spec.config.contact_model == "hydroelastic":
+        if self.spec.config.contact_model in ("hydroelastic", "edges"):
             return self.spec.world.hydroelastic_margin
         return 0.0
 

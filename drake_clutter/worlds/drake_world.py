@@ -188,17 +188,26 @@ def _box_proximity(box: BoxObject, config: WorldConfig, compliant: bool) -> Prox
 
 @dataclass(frozen=True)
 class PointContactBoxes:
-    """Boxes in point contact instead of compliant hydroelastic contact (phi variants).
+    """Boxes whose support on the shelf is point contact on small spheres (phi variants).
 
-    A sphere of ``sphere_radius`` sits inside each of a box's 8 corners, flush with its faces,
-    and alone touches the shelf (point contact of a Box shape on a board jitters at rest; four
-    spheres settle). With ``box_shape`` the Box itself meets the arm and the other boxes; without
-    it the corner spheres meet everything and the arm passes through the shelf: the variant
-    Drake's AutoDiffXd can step through (it has no Box-Box or Box-Capsule point queries).
+    By default a sphere of ``sphere_radius`` sits inside each of a box's 8 corners, flush with
+    its faces, and alone touches the shelf (point contact of a Box shape on a board jitters at
+    rest; four spheres settle). With ``box_shape`` the Box itself meets the arm and the other
+    boxes; without it the corner spheres meet everything and the arm passes through the shelf:
+    the variant Drake's AutoDiffXd can step through (it has no Box-Box or Box-Capsule point
+    queries).
+
+    With ``compliant_box`` the Box stays a compliant hydroelastic body (with the margin) that
+    meets the arm and the other boxes, and the spheres are centred on the box's 12 edges (its
+    corners, and points at most ``edge_spacing`` apart along each edge; 0: corners only): the
+    box stands on its true footprint, ``sphere_radius`` above the shelf, and a box overhanging
+    the board's edge is carried by the points still above it.
     """
 
     sphere_radius: float
     box_shape: bool = True
+    compliant_box: bool = False
+    edge_spacing: float = 0.0
 
 
 def _corner_offsets(box: BoxObject, radius: float) -> np.ndarray:
@@ -207,16 +216,42 @@ def _corner_offsets(box: BoxObject, radius: float) -> np.ndarray:
     return signs * half
 
 
+def edge_points(size, spacing: float) -> np.ndarray:
+    """Points p_BS (m, box frame B at the centre) on a box's 12 edges: its 8 corners and, with
+    ``spacing`` > 0, points spread evenly along each edge at most ``spacing`` apart."""
+    half = np.asarray(size, dtype=float) / 2
+    points = [np.array([sx, sy, sz]) * half for sx in (-1, 1) for sy in (-1, 1)
+              for sz in (-1, 1)]
+    if spacing > 0:
+        for axis in range(3):
+            n = int(np.ceil(2 * half[axis] / spacing - 1e-9))
+            others = [a for a in range(3) if a != axis]
+            for s1, s2 in ((-1, -1), (-1, 1), (1, -1), (1, 1)):
+                for k in range(1, n):
+                    p = np.zeros(3)
+                    p[axis] = -half[axis] + 2 * half[axis] * k / n
+                    p[others[0]], p[others[1]] = s1 * half[others[0]], s2 * half[others[1]]
+                    points.append(p)
+    return np.array(points)
+
+
+def _sphere_offsets(box: BoxObject, point: PointContactBoxes) -> np.ndarray:
+    if point.compliant_box:
+        return edge_points(box.size, point.edge_spacing)
+    return _corner_offsets(box, point.sphere_radius)
+
+
 def _register_box_geometry(plant: MultibodyPlant, body, box: BoxObject, config: WorldConfig,
                            compliant: bool, point: PointContactBoxes | None) -> dict:
     """Collision geometry of one box; returns the ids as {"box": [...], "spheres": [...]}."""
     ids = {"box": [], "spheres": []}
-    if point is None or point.box_shape:
+    if point is None or point.box_shape or point.compliant_box:
+        hydroelastic = compliant and (point is None or point.compliant_box)
         ids["box"].append(plant.RegisterCollisionGeometry(
             body, RigidTransform(), Box(*box.size), f"{box.name}_collision",
-            _box_proximity(box, config, compliant and point is None)))
+            _box_proximity(box, config, hydroelastic)))
     if point is not None:
-        for i, p_BS in enumerate(_corner_offsets(box, point.sphere_radius)):
+        for i, p_BS in enumerate(_sphere_offsets(box, point)):
             ids["spheres"].append(plant.RegisterCollisionGeometry(
                 body, RigidTransform(p_BS), Sphere(point.sphere_radius),
                 f"{box.name}_corner{i}", _box_proximity(box, config, False)))
@@ -320,7 +355,7 @@ def _filter_point_contact_pairs(parts: dict, plant: MultibodyPlant, scene_graph,
     ``point.box_shape``). Without Box shapes the spheres touch everything and the arm does not
     touch the shelf: AutoDiffXd penetration queries throw for every Capsule-Box candidate pair,
     even one that does not touch (the AutoDiffXd variant suits paths clear of the shelf)."""
-    if not point.box_shape:
+    if not (point.box_shape or point.compliant_box):
         scene_graph.collision_filter_manager().Apply(CollisionFilterDeclaration().ExcludeBetween(
             _geometries(plant, parts["robot"]), _geometries(plant, parts["shelf"])))
         return
@@ -345,7 +380,8 @@ def _dynamics_builder(config: WorldConfig,
         "similar": DiscreteContactApproximation.kSimilar,
         "lagged": DiscreteContactApproximation.kLagged}[config.contact_approximation])
     plant.set_sap_near_rigid_threshold(config.near_rigid_threshold)
-    plant.set_contact_model(ContactModel.kHydroelasticWithFallback if point_contact is None
+    hydroelastic = point_contact is None or point_contact.compliant_box
+    plant.set_contact_model(ContactModel.kHydroelasticWithFallback if hydroelastic
                             else ContactModel.kPoint)
     return builder
 
@@ -362,7 +398,7 @@ def _filter_actor_contact(builder: RobotDiagramBuilder, parts: dict, config: Wor
         CollisionFilterDeclaration().ExcludeWithin(robot_geometry))
     if point_contact is not None:
         _filter_point_contact_pairs(parts, plant, scene_graph, point_contact)
-    elif config.robot_hydroelastic:
+    if (point_contact is None or point_contact.compliant_box) and config.robot_hydroelastic:
         _make_rigid_hydroelastic(plant, scene_graph, parts["robot"], config)
         scene_graph.collision_filter_manager().Apply(
             CollisionFilterDeclaration().ExcludeBetween(robot_geometry,

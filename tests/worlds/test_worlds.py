@@ -138,3 +138,23 @@ def test_box_friction_pairs_like_the_judge(as_bullet):
     friction = inspector.GetProperties(geometry, Role.kProximity).GetProperty(
         "material", "coulomb_friction")
     assert friction.static_friction() == pytest.approx(box_friction(box.friction, config))
+
+
+def test_edge_points_cover_the_twelve_edges_at_most_spacing_apart():
+    """The "edges" support spheres: the 8 corners, and along each edge evenly spread points at
+    most ``spacing`` apart; every point lies on an edge (two coordinates at +-half size)."""
+    from drake_clutter.worlds.drake_world import edge_points
+
+    size = np.array([0.08, 0.06, 0.22])
+    corners = edge_points(size, 0.0)
+    assert len(corners) == 8
+    np.testing.assert_allclose(np.abs(corners), np.tile(size / 2, (8, 1)))
+    points = edge_points(size, 0.02)
+    on_faces = np.isclose(np.abs(points), size / 2).sum(axis=1)
+    assert np.all(on_faces >= 2)
+    assert len(np.unique(points.round(9), axis=0)) == len(points)
+    for axis in range(3):  # one edge along each axis: consecutive points at most 2 cm apart
+        others = [a for a in range(3) if a != axis]
+        edge = points[np.all(np.isclose(points[:, others], -size[others] / 2), axis=1)]
+        gaps = np.diff(np.sort(edge[:, axis]))
+        assert gaps.max() <= 0.02 + 1e-12 and len(edge) == int(np.ceil(size[axis] / 0.02)) + 1

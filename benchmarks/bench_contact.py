@@ -39,8 +39,8 @@ from drake_clutter.conformance.suite import (
     REFERENCE,
     MissingMujoco,
     case_rows,
+    mujoco_engine,
     run_cases,
-    simulate,
     summarise,
 )
 
@@ -69,7 +69,7 @@ def _check_inputs(args) -> tuple:
         except UnrealisableFriction as error:
             raise InputError(args.grid or "<default grid>", scenario.name, str(error)) from None
     if any(e.startswith("mujoco") for e in engines):
-        simulate(next(e for e in engines if e.startswith("mujoco")), scenarios[0], config)
+        mujoco_engine()
     return config, scenarios, engines
 
 

@@ -31,12 +31,10 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
 from drake_clutter.common.typed_yaml import InputError, from_data, read_yaml_file
 from drake_clutter.scene.scenes import BoxObject, RobotPlacement, Scene, Shelf, Walls
 
-Family = Literal["single", "chain", "edge", "squeeze", "topple", "drag"]
 FAMILIES: tuple[str, ...] = ("single", "chain", "edge", "squeeze", "topple", "drag")
 BOARD_TOP = 0.75  # m, z of the board's top face in W
 BOARD = Shelf(kind="bookshelf", depth=1.0, width=1.0, thickness=0.03, top_height=BOARD_TOP,

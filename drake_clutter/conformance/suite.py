@@ -27,6 +27,16 @@ class MissingMujoco(ImportError):
     """The reference engine is not installed."""
 
 
+def mujoco_engine():
+    """The MuJoCo engine module; MissingMujoco (naming the package) without MuJoCo installed."""
+    try:
+        from drake_clutter.conformance import mujoco_engine as engine
+    except ImportError as error:
+        raise MissingMujoco("the contact suite's reference engine needs MuJoCo: "
+                            "pip install mujoco (it is in the dev extras)") from error
+    return engine
+
+
 def simulate(engine: str, scenario: Scenario, config: Config) -> Trace:
     """One engine's run of a scenario (a simulation failure is recorded in the trace)."""
     if engine == "phi":
@@ -34,12 +44,7 @@ def simulate(engine: str, scenario: Scenario, config: Config) -> Trace:
     if engine == "bullet":
         return bullet_engine.simulate(scenario, config)
     if engine.startswith("mujoco_"):
-        try:
-            from drake_clutter.conformance import mujoco_engine
-        except ImportError as error:
-            raise MissingMujoco("the contact suite's reference engine needs MuJoCo: "
-                                "pip install mujoco (it is in the dev extras)") from error
-        return mujoco_engine.simulate(scenario, engine.removeprefix("mujoco_"))
+        return mujoco_engine().simulate(scenario, engine.removeprefix("mujoco_"))
     raise ValueError(f"unknown engine {engine!r} ({', '.join(ENGINES)})")
 
 

@@ -389,9 +389,10 @@ def _dynamics_builder(config: WorldConfig,
 def _filter_actor_contact(builder: RobotDiagramBuilder, parts: dict, config: WorldConfig,
                           point_contact: PointContactBoxes | None) -> GeometrySet:
     """phi's collision rules for the actor (the arm, or a scripted pusher) in ``parts["robot"]``
-    after Finalize: its own parts never touch; with point contact the corner spheres alone
-    meet the shelf; else with ``config.robot_hydroelastic`` it is rigid hydroelastic and does not
-    touch the shelf. Returns the actor's geometry."""
+    after Finalize: its own parts never touch; with support spheres (``point_contact``) those
+    alone meet the shelf; with hydroelastic boxes (also "edges") and
+    ``config.robot_hydroelastic`` the actor is rigid hydroelastic and does not touch the shelf.
+    Returns the actor's geometry."""
     plant, scene_graph = builder.plant(), builder.scene_graph()
     robot_geometry = _geometries(plant, parts["robot"])
     scene_graph.collision_filter_manager().Apply(

@@ -40,13 +40,15 @@ class DynamicsConfig:
     # SAP sub-steps of phi per knot (0.2 s knots / 10 = 20 ms), count; ours
     substeps: int = 10
     # box contact geometry in phi ("point", "spheres", "hydroelastic", "edges"), choice; ours
-    contact_model: Literal["point", "spheres", "hydroelastic", "edges"] = "hydroelastic"
+    contact_model: Literal["point", "spheres", "hydroelastic", "edges"] = "edges"
     # radius of the spheres inside the box corners ("point", "spheres"), m; ours
     corner_sphere_radius: float = 0.004
     # radius of the spheres on the box edges that meet the shelf ("edges"), m; ours
     edge_sphere_radius: float = 0.001
     # largest gap between the spheres along a box edge ("edges"; 0: corners only), m; ours
     edge_sphere_spacing: float = 0.02
+    # depth of phi's board collision box under the edge spheres ("edges": none tunnel), m; ours
+    edge_board_depth: float = 0.1
     # bodies closer than this at a sub-step's start may interact in that step, m; ours
     interaction_margin: float = 1e-3
     # largest state change for which a resting box reuses its Jacobian block, m, rad, m/s; ours

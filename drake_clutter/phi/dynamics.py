@@ -177,7 +177,8 @@ def point_contact_geometry(config: DynamicsConfig) -> PointContactBoxes | None:
         return None
     if config.contact_model == "edges":
         return PointContactBoxes(config.edge_sphere_radius, compliant_box=True,
-                                 edge_spacing=config.edge_sphere_spacing)
+                                 edge_spacing=config.edge_sphere_spacing,
+                                 board_depth=config.edge_board_depth)
     return PointContactBoxes(config.corner_sphere_radius,
                              box_shape=config.contact_model == "point")
 

@@ -150,10 +150,11 @@ def _add_robot(builder: RobotDiagramBuilder, scene: Scene, variant: str) -> Mode
     return robot
 
 
-def _add_shelf(builder: RobotDiagramBuilder, scene: Scene,
-               friction: float = SHELF_FRICTION) -> ModelInstanceIndex:
+def _add_shelf(builder: RobotDiagramBuilder, scene: Scene, friction: float = SHELF_FRICTION,
+               board_depth: float | None = None) -> ModelInstanceIndex:
     plant = builder.plant()
-    (shelf,) = builder.parser().AddModelsFromString(shelf_sdf(scene.shelf, friction), "sdf")
+    sdf = shelf_sdf(scene.shelf, friction, board_depth)
+    (shelf,) = builder.parser().AddModelsFromString(sdf, "sdf")
     cx, cy = scene.shelf.center_xy
     plant.WeldFrames(plant.world_frame(), plant.GetFrameByName(SHELF_LINK, shelf),
                      RigidTransform([cx, cy, scene.shelf.top_height]))
@@ -202,12 +203,16 @@ class PointContactBoxes:
     corners, and points at most ``edge_spacing`` apart along each edge; 0: corners only): the
     box stands on its true footprint, ``sphere_radius`` above the shelf, and a box overhanging
     the board's edge is carried by the points still above it.
+
+    ``board_depth`` (m; None: the shelf's thickness) deepens the board's collision box below
+    its top, so that a small sphere driven into it in one step is pushed back up, not through.
     """
 
     sphere_radius: float
     box_shape: bool = True
     compliant_box: bool = False
     edge_spacing: float = 0.0
+    board_depth: float | None = None
 
 
 def _corner_offsets(box: BoxObject, radius: float) -> np.ndarray:
@@ -304,7 +309,9 @@ def _new_world(builder: RobotDiagramBuilder, scene: Scene, variant: str, config:
     unknown = sorted(set(frozen or ()) - {b.name for b in scene.boxes})
     if unknown:
         raise ValueError(f"frozen boxes not in the scene: {', '.join(unknown)}")
-    robot, shelf = _add_robot(builder, scene, variant), _add_shelf(builder, scene)
+    board_depth = point.board_depth if point is not None else None
+    robot, shelf = _add_robot(builder, scene, variant), _add_shelf(builder, scene,
+                                                                    board_depth=board_depth)
     boxes, box_geometry = _add_boxes(builder, scene, config, compliant, frozen, point)
     return {"robot": robot, "shelf": shelf, "boxes": boxes, "box_geometry": box_geometry}
 
@@ -493,7 +500,8 @@ def build_pusher_world(scene: Scene, pusher: CapsulePusher, config: WorldConfig 
     config = config or WorldConfig()
     builder = _dynamics_builder(config, point_contact)
     plant = builder.plant()
-    shelf = _add_shelf(builder, scene, shelf_friction)
+    board_depth = point_contact.board_depth if point_contact is not None else None
+    shelf = _add_shelf(builder, scene, shelf_friction, board_depth)
     boxes, box_geometry = _add_boxes(builder, scene, config, True, None, point_contact)
     parts = {"robot": _add_pusher(builder, pusher, config), "shelf": shelf, "boxes": boxes,
              "box_geometry": box_geometry}

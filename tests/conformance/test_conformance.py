@@ -21,10 +21,12 @@ from drake_clutter.conformance.friction import (
 )
 from drake_clutter.conformance.outcomes import box_outcomes, realised_friction
 from drake_clutter.conformance.suite import run_cases, simulate, summarise
+from drake_clutter.scene.shelf import SHELF_LINK
 
 REPO = Path(__file__).resolve().parents[2]
 BENCH = REPO / "benchmarks" / "bench_contact.py"
-EDGES = ("dynamics.contact_model=edges",)  # the phi that passes the suite (not yet the default)
+EDGES = ("dynamics.contact_model=edges",)  # phi's default: the boxes stand on edge spheres
+HYDROELASTIC = ("dynamics.contact_model=hydroelastic",)  # phi's default until 2026-11-27
 
 
 def _config(*overrides) -> Config:
@@ -101,20 +103,22 @@ def test_pairs_no_positive_drake_coefficients_give_are_refused():
 @pytest.mark.parametrize("engine", ["bullet", "mujoco_default", "phi"])
 def test_a_drag_realises_the_pair_friction(engine):
     """A cube launched at 1 m/s on pair 0.3 decelerates at 0.3 g in every engine (phi within
-    3 %: SAP lifts a fast slider a few mm, measured 0.306)."""
+    5 %: measured 0.313 on edge spheres, 0.306 on hydroelastic boxes, where SAP lifts a fast
+    slider a few mm)."""
     drag = next(s for s in sc.drag_scenarios() if s.parameters == {"speed": 1.0,
                                                                    "board_friction": 0.3})
     mu = realised_friction(drag, simulate(engine, drag, Config()))
-    assert mu == pytest.approx(0.3, rel=0.03 if engine == "phi" else 0.01)
+    assert mu == pytest.approx(0.3, rel=0.05 if engine == "phi" else 0.01)
 
 
 # ----------------------------------------------------------------------------- phi's world
 
 
-@pytest.mark.parametrize("overrides, spheres", [((), 0), (EDGES, 9)])
+@pytest.mark.parametrize("overrides, spheres", [(HYDROELASTIC, 0), ((), 9)])
 def test_the_suite_steps_phis_own_world(overrides, spheres):
-    """The Drake engine builds the world phi builds: same step, approximation, contact model
-    and box geometry (a compliant Box; with "edges" also spheres on its edges)."""
+    """The Drake engine builds the world phi builds: same step, approximation, contact model,
+    box geometry (a compliant Box; with "edges", phi's default, also spheres on its edges)
+    and board (with "edges" a collision box ``edge_board_depth`` deep)."""
     from pydrake.geometry import Role
 
     from drake_clutter.conformance.drake_engine import build_world
@@ -143,6 +147,12 @@ def test_the_suite_steps_phis_own_world(overrides, spheres):
                             if n.endswith("_collision"))
         assert inspector.GetProperties(box_geometry, Role.kProximity).HasProperty(
             "hydroelastic", "compliance_type")
+    depth = config.dynamics.edge_board_depth if spheres else scene.shelf.thickness
+    for world in (ours, phi.world):
+        inspector = world.scene_graph.model_inspector()
+        (board,) = [g for g in world.plant.GetCollisionGeometriesForBody(world.plant.GetBodyByName(
+            SHELF_LINK)) if inspector.GetName(g).endswith("board")]
+        assert inspector.GetShape(board).height() == pytest.approx(depth)
 
 
 # ----------------------------------------------------------------------------- phi vs physics
@@ -190,19 +200,20 @@ def _passes(summary: dict) -> None:
     assert summary["topple"]["phi_agrees_with_mujoco"] == 1 and summary["topple"]["phi_thrown"] == 0
 
 
-def test_phi_on_edge_spheres_passes_the_conformance_suite():
-    """phi with contact_model 'edges' against MuJoCo (its defaults); measured 2026-11-27: 109 /
-    112, 94 / 94 far from the threshold, none thrown, chains 16, edges 12, the thin box lands."""
-    _passes(_suite_summary(_config(*EDGES)))
+def test_phi_as_configured_passes_the_conformance_suite():
+    """The default phi (boxes on edge spheres) against MuJoCo (its defaults); measured
+    2026-11-27: 109 / 112, 94 / 94 far from the threshold, none thrown, chains 16, edges 12,
+    the thin box lands."""
+    _passes(_suite_summary(Config()))
 
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="phi's fidelity: the hydroelastic box-board contact tips "
                    "boxes that slide (20 of 60) and SAP's lift throws toppled ones (25)")
-def test_phi_as_configured_passes_the_conformance_suite():
-    """The default (hydroelastic) phi, measured 2026-11-27: 71 / 112, 63 / 94 far from the
-    threshold, 25 thrown, chains 12, edges 12, the thin box thrown."""
-    _passes(_suite_summary(Config()))
+def test_phi_on_hydroelastic_boxes_passes_the_conformance_suite():
+    """phi on hydroelastic boxes (its default until 2026-11-27), measured 2026-11-27: 71 / 112,
+    63 / 94 far from the threshold, 25 thrown, chains 12, edges 12, the thin box thrown."""
+    _passes(_suite_summary(_config(*HYDROELASTIC)))
 
 
 def test_hard_contact_reads_a_squeeze_as_a_jam():

@@ -210,12 +210,23 @@ def test_a_dead_worker_raises_instead_of_hanging_and_the_pool_restarts():
 
 @pytest.fixture(scope="module")
 def hydro10():
-    """phi's hydroelastic boxes with a margin at 5 sub-steps (40 ms), 10 boxes, seed 0: the
+    """phi's hydroelastic boxes (phi's default until 2026-11-27, where these tests' thresholds
+    were measured) with a margin at 5 sub-steps (40 ms), 10 boxes, seed 0: the
     arm is within reach of a kept box from knot 0 and pushes box_06 6 cm over knots 2-13.
     The FD thresholds below were measured at 5 sub-steps; at the planner's 10 (20 ms) forward
     differences are coarser against AutoDiffXd (median 2.3e-2 on this push, measured
     2026-11-23), one reason the planner takes AutoDiffXd where the arm pushes (hybrid)."""
-    dynamics, xs, us = _setup(10, 0, derivative_method="fd", substeps=5)
+    dynamics, xs, us = _setup(10, 0, derivative_method="fd", substeps=5,
+                              contact_model="hydroelastic")
+    return dynamics, xs[:15], us[:14]
+
+
+@pytest.fixture(scope="module")
+def edges10():
+    """hydro10's push on phi's default boxes ("edges": standing on edge spheres) at the
+    planner's 10 sub-steps (20 ms)."""
+    dynamics, xs, us = _setup(10, 0, derivative_method="fd")
+    assert dynamics.config.contact_model == "edges"
     return dynamics, xs[:15], us[:14]
 
 
@@ -244,6 +255,32 @@ def test_finite_differences_agree_with_autodiff(hydro10):
     assert max(errors) < 0.5, errors  # measured 0.25 and 0.10 at knots 5 and 8, where h and 2h
     # differ as much: contact curves phi at the step's scale
     assert max(medians) < 1e-3, medians  # entry-wise, every knot (measured <= 8.2e-5)
+
+
+def test_edge_sphere_jacobians_autodiff_coloured_equals_dense_and_fd_agrees(edges10):
+    """phi's default boxes at 20 ms: the coloured, block-reusing AutoDiffXd Jacobians equal the
+    dense AutoDiffXd ones, and forward differences (fd_step 1e-6) agree with them except where
+    a contact makes or breaks inside the difference. Measured 2026-11-27: coloured against
+    dense <= 1.7e-11; FD against AutoDiffXd, whole Jacobian, median 4.8e-3 over 14 knots, 12
+    below 2e-2, one jump (7.8e3 at knot 2, where the arm reaches box_06; entry-wise median
+    there 5.7e-6, every knot <= 2.9e-5)."""
+    dynamics, xs, us = edges10
+    A, B = dynamics.linearize_tangent(xs, us)
+    exact = _with_config(dynamics, derivative_method="autodiff")
+    Ae, Be = exact.linearize_tangent(xs, us)
+    reference = AutoDiffPhi(dynamics.phi)
+    errors, medians = [], []
+    for t in range(len(us)):
+        Ja = np.hstack(reference.jacobians(xs[t], us[t]))
+        assert _rel(np.hstack([Ae[t], Be[t]]), Ja) < 1e-6, t
+        J = np.hstack([A[t], B[t]])
+        big = np.abs(Ja) > 1e-6 * np.abs(Ja).max()
+        medians.append(np.median(np.abs(J - Ja)[big] / np.abs(Ja)[big]))
+        errors.append(_rel(J, Ja))
+    assert any(ARM_NODE in e for t in range(len(us)) for e in _edges(dynamics, xs[t], us[t]))
+    assert np.median(errors) < 1e-2, errors
+    assert sum(e < 3e-2 for e in errors) >= 12, errors
+    assert max(medians) < 1e-4, medians
 
 
 def test_seeded_autodiff_is_the_full_jacobian_times_the_seeds(hydro10):

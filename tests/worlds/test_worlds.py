@@ -27,6 +27,31 @@ def dense_scene():
     return generate_scene("bookshelf", 25, seed=0)
 
 
+def test_a_deep_board_changes_only_the_boards_collision_box():
+    """``board_depth`` gives the board's collision box that depth below the top (the top face
+    stays at S's origin); its visual and the walls keep their sizes."""
+    import xml.etree.ElementTree as ET
+
+    shelf = default_shelves()["fridge"]
+
+    def boxes(text):
+        link = ET.fromstring(text).find("model/link")
+        return {(e.tag, e.get("name")): (np.array(e.find("pose").text.split(), float)[:3],
+                                         np.array(e.find("geometry/box/size").text.split(),
+                                                  float))
+                for e in link if e.tag in ("collision", "visual")}
+
+    thin, deep = boxes(shelf_sdf(shelf)), boxes(shelf_sdf(shelf, board_depth=0.1))
+    (centre, size), (thin_centre, thin_size) = deep["collision", "board"], thin["collision",
+                                                                               "board"]
+    assert size[2] == pytest.approx(0.1) and centre[2] == pytest.approx(-0.05)
+    assert centre[2] + size[2] / 2 == pytest.approx(thin_centre[2] + thin_size[2] / 2)
+    np.testing.assert_allclose(size[:2], thin_size[:2])
+    changed = [key for key in thin if not (np.allclose(thin[key][0], deep[key][0])
+                                           and np.allclose(thin[key][1], deep[key][1]))]
+    assert changed == [("collision", "board")]
+
+
 def test_checked_in_shelf_sdfs_match_generator():
     for kind, shelf in default_shelves().items():
         with open(pr2.repo_root() / "sdf" / f"{kind}.sdf", encoding="utf-8") as f:

@@ -10,11 +10,12 @@ given with ``--config`` / ``--set``: ``world.*``, ``dynamics.*``, ``baseline.kno
 Bullet with the judge's engine settings (``evaluation.*``) and in MuJoCo (the reference,
 default and stiff), with quasi-static mechanics' prediction beside them. Printed: agreement of
 the boxes' classes with MuJoCo per family and engine, the single pushes against mechanics
-(all, and those more than 15 % from the tipping threshold), thrown boxes, squeeze forces,
-realised drag friction and rise, and seconds per case. ``--json`` writes the summary,
-``--cases`` one row per case (JSON). ``--grid`` replaces the single-push grid (YAML, schema in
-docs/phi.md). Bad input (a grid, a configuration, a friction pair an engine cannot realise,
-MuJoCo missing) is one line on stderr, exit status 2, nothing written.
+(all, and those more than 15 % from the tipping threshold), thrown boxes, the cases phi's
+jam measure reads as jams (`phi.jam`, ``dynamics.jam_depth``), squeeze forces and phi's jam
+measure of each squeeze, realised drag friction and rise, and seconds per case. ``--json``
+writes the summary, ``--cases`` one row per case (JSON). ``--grid`` replaces the single-push
+grid (YAML, schema in docs/phi.md). Bad input (a grid, a configuration, a friction pair an
+engine cannot realise, MuJoCo missing) is one line on stderr, exit status 2, nothing written.
 """
 
 from __future__ import annotations
@@ -90,6 +91,8 @@ def _print_family(name: str, summary: dict, engines) -> None:
                          f"/{summary['mechanics_slides']}, slides where it tips "
                          f"{summary[f'{engine}_slides_where_mechanics_tips']}")
         parts.append(f"thrown {summary[f'{engine}_thrown']}")
+        if engine == "phi" and "phi_jams" in summary:
+            parts.append(f"read as jams {summary['phi_jams']}")
         if summary[f"{engine}_failed"]:
             parts.append(f"failed {summary[f'{engine}_failed']}")
         print(f"  {engine:15} " + ", ".join(parts))
@@ -104,8 +107,10 @@ def report(summary: dict, engines) -> None:
         print("\nsqueeze: the box's force on the static shelf beyond its weight (N), "
               "last 0.2 s")
         for row in summary["squeeze"]:
+            jam = (f"  phi's jam measure {row['phi_jam_mm']:.2f} mm"
+                   f"{' (a jam)' if row['phi_reads_jam'] else ''}" if "phi_jam_mm" in row else "")
             print(f"  {row['depth_mm']:3.0f} mm " + "  ".join(
-                f"{e} {row[f'{e}_force_N']:9.2f}" for e in engines))
+                f"{e} {row[f'{e}_force_N']:9.2f}" for e in engines) + jam)
     if "drag" in summary:
         print("\ndrag: realised box-board friction (deceleration / g) and the rise of the sliding "
               "box (mm)")

@@ -28,7 +28,9 @@ Besides the terms, each plan is graded in phi itself ('phi_class', `settled_clas
 classes read on phi's boxes after the hold tail (a box tipped or off the board, the target in
 the last knot's pre-grasp zone), averaged over the members as the robust judge averages its
 replays - the surrogate of the judge's classes; 'phi_class_kf' also reads a kinematic failure
-where c_force holds at least one knot's worth of a contact at the judge's shelf-force limit.
+where c_force holds at least one knot's worth of a contact at the judge's shelf-force limit,
+'phi_class_jam' where phi's jam measure ('jam', `phi.jam`: the arm's commanded approach into a
+box a rigid world would not let move, largest knot, m) reaches ``dynamics.jam_depth``.
 
 Printed: one line per scene, start and member; then, over every two plans of the same
 initialization (scene and angle) whose grades differ (with ``--margin`` also over the pairs
@@ -105,8 +107,8 @@ def price(job: tuple) -> dict[str, dict]:
     key, its terms (None where phi fails) and the boxes' states after the hold tail."""
     scene_name, paths, config, member = job
     scene = stored_scene(scene_name, config)
-    rollouts = member_rollouts(scene, paths, config, member)
-    return {key: {"terms": r.terms,
+    rollouts = member_rollouts(scene, paths, config, member, jam=True)
+    return {key: {"terms": r.terms, "jam": r.jam,
                   "final": (None if r.final_boxes is None else
                             {n: b.tolist() for n, b in r.final_boxes.items()})}
             for key, r in rollouts.items()}
@@ -118,10 +120,11 @@ def _terms(plan: dict, members: int) -> list[dict | None]:
 
 
 def add_phi_class(plans: list[dict], config) -> None:
-    """Adds 'phi_class' (`grasp_height.settled_class`) and 'phi_class_kf' to every priced
-    member's entry: the latter reads a kinematic failure (class 3) where c_force is at least
-    one knot's worth of a contact at the judge's shelf-force limit (w_force / 2 x
-    max_static_force^2)."""
+    """Adds 'phi_class' (`grasp_height.settled_class`), 'phi_class_kf' and 'phi_class_jam' to
+    every priced member's entry: 'phi_class_kf' reads a kinematic failure (class 3) where
+    c_force is at least one knot's worth of a contact at the judge's shelf-force limit
+    (w_force / 2 x max_static_force^2), 'phi_class_jam' where the jam measure reaches
+    ``dynamics.jam_depth``."""
     scene, geometry = None, None
     for p in sorted(plans, key=lambda p: p["scene"]):
         if scene is None or p["scene"] != scene.name:  # one scene's world at a time
@@ -133,6 +136,7 @@ def add_phi_class(plans: list[dict], config) -> None:
                 m["phi_class"] = settled_class(scene, geometry, q_last, m["final"],
                                                config.evaluation)
                 m["phi_class_kf"] = _with_jams(m["phi_class"], m["terms"], config)
+                m["phi_class_jam"] = _with_jam_measure(m["phi_class"], m.get("jam"), config)
 
 
 def _with_jams(value: float | None, terms: dict | None, config) -> float | None:
@@ -142,6 +146,14 @@ def _with_jams(value: float | None, terms: dict | None, config) -> float | None:
     return 3.0 + (value % 1.0) if terms.get("force", 0.0) >= jam else value
 
 
+def _with_jam_measure(value: float | None, jam: float | None, config) -> float | None:
+    """The phi class read as a kinematic failure (3) where the jam measure reaches
+    ``dynamics.jam_depth``."""
+    if value is None or jam is None:
+        return None
+    return 3.0 + (value % 1.0) if jam >= config.dynamics.jam_depth else value
+
+
 def _total(terms: dict) -> float:
     return float(sum(terms.values()))
 
@@ -149,7 +161,7 @@ def _total(terms: dict) -> float:
 def score(plan: dict, term: str, members: int, risk: str, config) -> float | None:
     """The plan's ensemble score of ``term`` ('total' or a Table I term; terms by their
     members' mean) over its first ``members`` members; None where phi failed."""
-    if term in ("phi_class", "phi_class_kf"):
+    if term in ("phi_class", "phi_class_kf", "phi_class_jam", "jam"):
         values = [m.get(term) if m else None for m in plan["members"][:members]]
         return None if None in values else float(np.mean(values))
     per = _terms(plan, members)
@@ -301,6 +313,7 @@ def _load_cache(path: Path | None) -> dict[str, list]:
         if line.strip():
             entry = json.loads(line)
             found[entry["key"]][entry["member"]] = {"terms": entry["terms"],
+                                                   "jam": entry.get("jam"),
                                                    "final": entry["final"]}
     out = {}
     for key, members in found.items():
@@ -346,7 +359,7 @@ def _print_agreement(plans, label, ks, config, margin: float = 0.0) -> None:
     terms = sorted({k for p in plans for t in _terms(p, max(ks)) if t for k in t})
     for k in ks:
         for risk in (RISKS if k > 1 else ("mean",)):
-            extra = ["total", "phi_class", "phi_class_kf"]
+            extra = ["total", "phi_class", "phi_class_kf", "jam", "phi_class_jam"]
             counts = order_agreement(plans, label, [*terms, *extra], k, risk, config, margin)
             print(f"  K = {k}, {risk}:")
             for term in ([*terms, *extra] if risk == "mean" else ["total"]):

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Does a plan that lays the arm on a box's top fail in the judge? A geometric jam predictor.
+"""Does a plan that jams a box fail in the judge? Two jam predictors against the judge.
 
     python benchmarks/press_vs_judge.py --db RUN.db [--db RUN2.db ...]
-        [--configurations NAME ...] [--variant capsules|evaluation] [--normal-z 0.5]
-        [--substeps 4] [--seed 0]
+        [--configurations NAME ...] [--measure press|jam] [--set FIELD=VALUE ...]
+        [--variant capsules|evaluation] [--normal-z 0.5] [--substeps 4] [--seed 0]
 
 The judge's most common kinematic failure (Sec. III) is a box pushed into the board: in hard
 contact a kinematic arm that comes down on a box's top meets a box that cannot make way, and
@@ -12,6 +12,12 @@ stored plan with robust replays (both planners, every configuration; a plan stor
 counted once) and measures its deepest press (`penetration.path_press`: the arm in geometry
 ``--variant``, the boxes at rest, ``--substeps`` configurations per knot interval, pairs whose
 normal from the box to the arm has an up component above ``--normal-z``).
+
+With ``--measure jam`` the score is phi's jam measure instead (`phi.jam`: the arm's commanded
+approach into a box that a rigid world would not let move, whatever the contact's stiffness):
+each plan rolled out in its own pruned phi (the planner's, under ``--set`` overrides) from
+the settled scene, then ``physics.hold_knots`` knots holding its last configuration; its
+score is the largest knot's jam over every box (m).
 
 Printed, over all plans and per planner: the plans that press (deeper than each of
 THRESHOLDS_MM) and those that do not, with their mean robust P(kinematic failure) and
@@ -28,9 +34,13 @@ from dataclasses import replace
 import numpy as np
 
 from drake_clutter.common.config import ReportConfig, load_config
+from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.experiments.paired import bootstrap_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import StoreError, stored_plans
+from drake_clutter.phi.dynamics import Phi, initial_state
+from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.state import scene_box_states
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.penetration import path_press
 from drake_clutter.robot.pr2 import VARIANTS
@@ -67,6 +77,35 @@ def measure(plans: list[dict], variant: str, substeps: int, normal_z: float) -> 
         plan["press"] = path_press(geometry, plan["q"], substeps, normal_z)
 
 
+def path_jam(scene, q: np.ndarray, config) -> float:
+    """The largest knot's jam measure (m) over every box when the knot path ``q`` (T + 1, 8)
+    is rolled out in its pruned phi and held ``physics.hold_knots`` knots; NaN where phi
+    fails."""
+    spec, _ = make_pruned_spec(scene, q, knot_time=config.baseline.knot_time,
+                               config=config.dynamics, world_config=config.world)
+    phi = Phi(spec)
+    x = phi.settle(initial_state(spec.layout, q[0], scene_box_states(scene)))
+    worst = 0.0
+    controls = list(q[1:]) + [q[-1]] * config.physics.hold_knots
+    for u in controls:
+        x, jam = phi.step_jam(x, u)
+        if not np.all(np.isfinite(x)):
+            return float("nan")
+        worst = max(worst, float(jam.max(initial=0.0)))
+    return worst
+
+
+def measure_jam(plans: list[dict], config) -> None:
+    """Adds each plan's jam measure (m, `path_jam`) as ``press``."""
+    scene = None
+    for i, plan in enumerate(sorted(plans, key=lambda p: p["scene"])):
+        if scene is None or plan["scene"] != scene.name:
+            scene = stored_scene(plan["scene"], config)
+        plan["press"] = path_jam(scene, np.asarray(plan["q"], float), config)
+        print(f"  {i + 1}/{len(plans)} {plan['scene']} {plan['planner']}: jam "
+              f"{plan['press'] * 1000:.2f} mm, nominal {plan['nominal']}", flush=True)
+
+
 def mean_interval(values: np.ndarray, seed: int) -> str:
     """'mean [lo, hi]': the mean and its 95 % bootstrap interval ('-' when empty)."""
     if len(values) == 0:
@@ -86,6 +125,7 @@ def auc(score: np.ndarray, positive: np.ndarray) -> float:
 
 def report(plans: list[dict], label: str, seed: int) -> None:
     """Prints the press table of ``plans`` (module docstring)."""
+    plans = [p for p in plans if np.isfinite(p["press"])]
     depth = np.array([p["press"] for p in plans])
     p_kf = np.array([p["p_kf"] for p in plans])
     p_success = np.array([p["p_success"] for p in plans])
@@ -104,6 +144,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--db", action="append", required=True, help="experiment store")
     parser.add_argument("--configurations", nargs="*", default=[])
+    parser.add_argument("--measure", default="press", choices=("press", "jam"),
+                        help="the arm's geometric press, or phi's jam measure")
+    parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                        help="configuration override for phi (--measure jam)")
     parser.add_argument("--variant", default="capsules", choices=VARIANTS,
                         help="the arm's geometry (the planner's cost geometry: capsules)")
     parser.add_argument("--normal-z", type=float, default=0.5,
@@ -121,9 +165,18 @@ def main(argv=None) -> int:
     if not plans:
         print("no stored plan with robust replays", file=sys.stderr)
         return 2
-    measure(plans, args.variant, args.substeps, args.normal_z)
-    print(f"{len(plans)} distinct plans; the arm in '{args.variant}', a press: normal up "
-          f"> {args.normal_z}, {args.substeps} configurations per knot interval")
+    if args.measure == "jam":
+        try:
+            config = load_config(None, args.set)
+        except InputError as exc:
+            print(exc, file=sys.stderr)
+            return 2
+        measure_jam(plans, config)
+        print(f"{len(plans)} distinct plans; phi's jam measure (m), largest knot")
+    else:
+        measure(plans, args.variant, args.substeps, args.normal_z)
+        print(f"{len(plans)} distinct plans; the arm in '{args.variant}', a press: normal up "
+              f"> {args.normal_z}, {args.substeps} configurations per knot interval")
     report(plans, "all plans", args.seed)
     for planner in sorted({p["planner"] for p in plans}):
         report([p for p in plans if p["planner"] == planner], planner, args.seed)

@@ -49,6 +49,8 @@ class DynamicsConfig:
     edge_sphere_spacing: float = 0.02
     # depth of phi's board collision box under the edge spheres ("edges": none tunnel), m; ours
     edge_board_depth: float = 0.1
+    # one knot's commanded approach into a blocked box read as a jam (phi.jam), m; ours
+    jam_depth: float = 0.001
     # bodies closer than this at a sub-step's start may interact in that step, m; ours
     interaction_margin: float = 1e-3
     # largest state change for which a resting box reuses its Jacobian block, m, rad, m/s; ours

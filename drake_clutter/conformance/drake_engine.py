@@ -19,6 +19,7 @@ from drake_clutter.conformance.friction import drake_coefficients
 from drake_clutter.conformance.outcomes import Trace
 from drake_clutter.conformance.scenarios import Scenario, scenario_scene
 from drake_clutter.phi.dynamics import cap_box_speeds, point_contact_geometry
+from drake_clutter.phi.jam import ACTOR, JamReader
 from drake_clutter.worlds.drake_world import (
     CapsulePusher,
     World,
@@ -58,7 +59,17 @@ class _Run:
         self.shelf_geometry = {g for i in plant.GetBodyIndices(self.world.shelf)
                                for g in plant.GetCollisionGeometriesForBody(plant.get_body(i))}
         self.box_geometry = [set(plant.GetCollisionGeometriesForBody(b)) for b in self.bodies]
+        self.jam_reader = JamReader(self.world, self._jam_nodes())
+        self.approach: list[np.ndarray] = []  # per sub-step, per box: m into blocked boxes
         self._start()
+
+    def _jam_nodes(self) -> dict:
+        plant = self.world.plant
+        nodes = {g: i for i, ids in enumerate(self.box_geometry) for g in ids}
+        for index in plant.GetBodyIndices(self.world.robot):
+            for g in plant.GetCollisionGeometriesForBody(plant.get_body(index)):
+                nodes[g] = ACTOR
+        return nodes
 
     def _pusher_target(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         pusher = self.scenario.pusher
@@ -91,6 +102,16 @@ class _Run:
                     f[i] += np.linalg.norm(force)
         return f
 
+    def jam(self) -> np.ndarray:
+        """phi's jam measure per box (m): the largest sum of the approach over one knot's
+        sub-steps (as `Phi.step_jam` reads a knot)."""
+        n = self.config.dynamics.substeps
+        if not self.approach:
+            return np.zeros(len(self.bodies))
+        steps = np.array(self.approach)
+        sums = np.cumsum(np.vstack([np.zeros(len(self.bodies)), steps]), axis=0)
+        return (sums[n:] - sums[:-n]).max(axis=0) if len(steps) >= n else sums[-1]
+
     def sample(self) -> tuple[np.ndarray, np.ndarray]:
         """Box centres (n, 3) and rotations (n, 3, 3) in W now."""
         poses = [self.world.plant.EvalBodyPoseInWorld(self.context, b) for b in self.bodies]
@@ -105,6 +126,12 @@ class _Run:
                                                                       np.concatenate([q, v]))
         state = plant.EvalUniquePeriodicDiscreteUpdate(self.context)
         forces = self.static_forces()
+        v_commanded = np.zeros(plant.num_velocities())
+        plant.SetVelocitiesInArray(self.world.robot, v, v_commanded)
+        approach = np.zeros(len(self.bodies))
+        for box, speed in self.jam_reader.approach(self.context, v_commanded).items():
+            approach[box] = max(speed, 0.0) * self.dt
+        self.approach.append(approach)
         self.context.SetDiscreteState(cap_box_speeds(state.value(), self.box_v,
                                                      self.config.dynamics))
         return forces
@@ -136,4 +163,4 @@ def simulate(scenario: Scenario, config: Config) -> Trace:
     forces = [forces[0] if forces else np.zeros(len(scenario.boxes))] + forces
     n = len(times)
     return Trace("phi", np.array(times), np.array(positions), np.array(rotations),
-                 np.array(forces[:n]), time.perf_counter() - started, failure)
+                 np.array(forces[:n]), time.perf_counter() - started, failure, run.jam())

@@ -22,7 +22,8 @@ class Trace:
     """An engine's run of a scenario, sampled every ``times`` step: box centres p_WB (T, n, 3),
     rotations R_WB (T, n, 3, 3), each box's summed contact force with the static shelf (board
     and walls, N, (T, n), its weight included) and the run's wall-clock seconds; ``failure``
-    names a simulation failure (then the samples end where it happened)."""
+    names a simulation failure (then the samples end where it happened). ``jam`` (phi only,
+    m, (n,)) is phi's jam measure of each box over the run (`phi.jam`)."""
 
     engine: str
     times: np.ndarray
@@ -31,6 +32,7 @@ class Trace:
     static_force: np.ndarray
     seconds: float
     failure: str = ""
+    jam: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -39,7 +41,8 @@ class BoxOutcome:
     "fallen" (off the board); ``moved`` m of its centre in the board's plane; ``tilt`` rad;
     ``rise`` m, the highest its centre rose while it stood (tilt < 0.05 rad); ``thrown`` when it
     fell or moved more than 0.5 m; ``squeeze`` N, its mean force on the static shelf beyond its
-    weight over the last ``force_window`` s (Sec. III's kinematic-failure quantity)."""
+    weight over the last ``force_window`` s (Sec. III's kinematic-failure quantity); ``jam``
+    m, phi's jam measure (NaN in the other engines)."""
 
     kind: str
     moved: float
@@ -47,6 +50,7 @@ class BoxOutcome:
     rise: float
     thrown: bool
     squeeze: float
+    jam: float = float("nan")
 
 
 def tilts(rotations: np.ndarray) -> np.ndarray:
@@ -73,8 +77,9 @@ def box_outcomes(scenario: Scenario, trace: Trace, max_tilt: float,
         rise = float(np.max(p[standing, 2] - rest_z)) if np.any(standing) else 0.0
         weight = box.mass * GRAVITY
         squeeze = float(np.mean(trace.static_force[window, i]) - weight)
+        jam = float(trace.jam[i]) if trace.jam is not None else float("nan")
         out.append(BoxOutcome(kind, moved, float(tilt[-1]), max(rise, 0.0),
-                              bool(fallen or moved > THROWN_DISTANCE), squeeze))
+                              bool(fallen or moved > THROWN_DISTANCE), squeeze, jam))
     return out
 
 

@@ -104,7 +104,8 @@ class ScriptedBox:
 class Pusher:
     """The capsule: its axis along y, ``start`` its centre in W, moving ``travel`` along +x and
     holding there. Its speed follows a trapezoid: up from rest to ``speed`` over ``ramp`` s,
-    then constant, then down to rest over ``ramp`` s (a slow push without an impact)."""
+    then constant, then down to rest over ``ramp`` s (a slow push without an impact); a travel
+    shorter than ``speed`` x ``ramp`` ramps over travel / speed instead (a triangle)."""
 
     radius: float
     length: float  # m, the cylinder's length along y
@@ -116,7 +117,12 @@ class Pusher:
     @property
     def push_time(self) -> float:
         """s the pusher moves."""
-        return self.travel / self.speed + self.ramp
+        return self.travel / self.speed + self._ramp
+
+    @property
+    def _ramp(self) -> float:
+        """s of each ramp: ``ramp``, shortened so that the two fit in the travel."""
+        return min(self.ramp, self.travel / self.speed)
 
     def x_at(self, t: float) -> float:
         """x of the capsule's centre at time t (W, m)."""
@@ -124,15 +130,16 @@ class Pusher:
 
     def speed_at(self, t: float) -> float:
         """The capsule's speed along +x at time t (m/s)."""
-        if self.ramp <= 0:
+        ramp = self._ramp
+        if ramp <= 0:
             return self.speed if 0 <= t < self.push_time else 0.0
         end = self.push_time
         if t < 0 or t >= end:
             return 0.0
-        return self.speed * min(1.0, t / self.ramp, (end - t) / self.ramp)
+        return self.speed * min(1.0, t / ramp, (end - t) / ramp)
 
     def _distance(self, t: float) -> float:
-        v, r, end = self.speed, self.ramp, self.push_time
+        v, r, end = self.speed, self._ramp, self.push_time
         if r <= 0:
             return v * t
         if t <= r:

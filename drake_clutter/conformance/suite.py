@@ -50,11 +50,13 @@ def simulate(engine: str, scenario: Scenario, config: Config) -> Trace:
 
 @dataclass
 class CaseResult:
-    """A scenario's traces and box outcomes per engine."""
+    """A scenario's traces and box outcomes per engine, and the jam reading's threshold (m,
+    ``dynamics.jam_depth``)."""
 
     scenario: Scenario
     traces: dict[str, Trace]
     outcomes: dict[str, list[BoxOutcome]]
+    jam_depth: float = float("inf")
 
     def kinds(self, engine: str) -> tuple[str, ...]:
         """The boxes' classes in an engine's run."""
@@ -63,6 +65,11 @@ class CaseResult:
     def agrees(self, engine: str, reference: str = REFERENCE) -> bool:
         """Every box ends in the same class as in the reference engine."""
         return self.kinds(engine) == self.kinds(reference)
+
+    def jams(self) -> bool:
+        """phi's jam measure reads a jam on some box (``dynamics.jam_depth``)."""
+        return "phi" in self.outcomes and any(o.jam >= self.jam_depth
+                                              for o in self.outcomes["phi"])
 
     def thrown(self, engine: str) -> bool:
         """Some box fell off the board or moved more than 0.5 m."""
@@ -78,7 +85,7 @@ def run_cases(scenarios: Sequence[Scenario], config: Config, engines: Sequence[s
         outcomes = {engine: box_outcomes(scenario, trace, config.evaluation.max_tilt,
                                          config.evaluation.force_window)
                     for engine, trace in traces.items()}
-        results.append(CaseResult(scenario, traces, outcomes))
+        results.append(CaseResult(scenario, traces, outcomes, config.dynamics.jam_depth))
         if progress is not None:
             progress()
     return results
@@ -92,6 +99,8 @@ def _family_summary(results: list[CaseResult], engines: Sequence[str]) -> dict:
             summary[f"{engine}_agrees_with_mujoco"] = sum(r.agrees(engine) for r in results)
         summary[f"{engine}_thrown"] = sum(r.thrown(engine) for r in results)
         summary[f"{engine}_failed"] = sum(bool(r.traces[engine].failure) for r in results)
+    if "phi" in engines:
+        summary["phi_jams"] = sum(r.jams() for r in results)
     if results and results[0].scenario.family == "single":
         summary |= _mechanics_summary(results, engines, compared)
     return summary
@@ -116,9 +125,13 @@ def _mechanics_summary(results: list[CaseResult], engines: Sequence[str],
 
 
 def _squeeze_rows(results: list[CaseResult], engines: Sequence[str]) -> list[dict]:
-    return [{"depth_mm": r.scenario.parameters["depth"] * 1000,
+    rows = [{"depth_mm": r.scenario.parameters["depth"] * 1000,
              **{f"{engine}_force_N": r.outcomes[engine][0].squeeze for engine in engines}}
             for r in results]
+    if "phi" in engines:
+        for row, r in zip(rows, results, strict=True):
+            row |= {"phi_jam_mm": r.outcomes["phi"][0].jam * 1000, "phi_reads_jam": r.jams()}
+    return rows
 
 
 def _drag_rows(results: list[CaseResult], engines: Sequence[str]) -> list[dict]:

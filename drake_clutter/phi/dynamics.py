@@ -40,6 +40,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 
 from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig
+from drake_clutter.phi.jam import ACTOR, JamReader
 from drake_clutter.phi.state import (
     ARM_DIM,
     BOX_DIM,
@@ -233,6 +234,7 @@ class Phi:
         self._shelf_allowance = spec.config.shelf_force_allowance * self.weights
         self._geometry_nodes = self._map_geometry_to_nodes()
         self._contact_port = self.plant.get_contact_results_output_port()
+        self._jam_reader = None  # built on the first `step_jam`
         self.failures = 0
         self.shelf_forces = np.full(self.num_forces, np.nan)  # of the last step_forces
 
@@ -333,12 +335,32 @@ class Phi:
         x_next, _, f = self._step(x, u, trace=False, forces=True)
         return x_next, f
 
+    def step_jam(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """phi(x, u) and each kept box's jam measure over the knot (`phi.jam`: the arm's
+        commanded approach into it while a rigid world would not let it move, m, shape (n,);
+        NaN after a failed step)."""
+        jam = np.zeros(self.layout.num_boxes)
+        x_next = self._step(x, u, trace=False, forces=False, jam=jam)[0]
+        return x_next, jam if np.all(np.isfinite(x_next)) else jam * np.nan
+
+    def _jam_approach(self, v_arm: np.ndarray, jam: np.ndarray) -> None:
+        """Adds one sub-step's commanded approach into blocked boxes (m) to ``jam``."""
+        if self._jam_reader is None:
+            nodes = {g: ACTOR if n == ARM_NODE else n - 1
+                     for g, n in self._geometry_nodes.items() if n >= 0}
+            self._jam_reader = JamReader(self.world, nodes)
+        v = np.zeros(self.plant.num_velocities())
+        v[self._robot_v] = v_arm
+        for box, speed in self._jam_reader.approach(self.context, v).items():
+            jam[box] += max(speed, 0.0) * self.spec.sim_time_step
+
     @property
     def num_forces(self) -> int:
         """Length of the force vector: one entry per node (the arm, then each kept box)."""
         return 1 + self.layout.num_boxes
 
-    def _step(self, x, u, trace: bool, forces: bool) -> tuple[np.ndarray, set, np.ndarray]:
+    def _step(self, x, u, trace: bool, forces: bool,
+              jam: np.ndarray | None = None) -> tuple[np.ndarray, set, np.ndarray]:
         f = np.zeros(self.num_forces)
         shelf = np.zeros(self.num_forces)
         self.shelf_forces = shelf * np.nan
@@ -358,6 +380,8 @@ class Phi:
                 state = self.plant.EvalUniquePeriodicDiscreteUpdate(self.context)
                 if forces:  # the same cached SAP solve as the update
                     f += self.contact_forces(shelf_sum=shelf)
+                if jam is not None:
+                    self._jam_approach(v_arm, jam)
                 self.context.SetDiscreteState(self._speed_capped(state.value()))
             if trace:
                 edges |= self.interactions()

@@ -61,11 +61,13 @@ class MemberRollout:
     """One path in one member: its full-stage terms (None where phi failed), every kept
     box's 13-number state (quaternion wxyz, position in W (m), angular and linear velocity)
     at the end of the hold tail (None where phi failed), and whether the arm or a kept box
-    reached a box phi holds frozen (the score then misses that box's response)."""
+    reached a box phi holds frozen (the score then misses that box's response); ``jam``, when
+    asked for, the largest knot's jam measure over the path and the hold tail (m, `phi.jam`)."""
 
     terms: dict[str, float] | None
     final_boxes: dict[str, np.ndarray] | None
     reached_frozen: bool = False
+    jam: float | None = None
 
 
 FAILED = MemberRollout(None, None)
@@ -116,30 +118,31 @@ def score_in_members(problems: list[StageProblem | None], paths: dict[str, np.nd
 
 
 def member_rollouts(scene: Scene, paths: dict[str, np.ndarray], config: Config, member: int,
-                    pool=None, knot_time: float | None = None, approach=None
-                    ) -> dict[str, MemberRollout]:
+                    pool=None, knot_time: float | None = None, approach=None,
+                    jam: bool = False) -> dict[str, MemberRollout]:
     """Each knot path (T + 1, 8) rolled out in member ``member``'s phi, pruned for all
     ``paths`` together, priced by the full stage's objective per Table I term (capsule arm,
-    hold tail); `FAILED` for a path phi cannot roll out (the others are still priced), and for
-    every path where phi cannot even settle the member's scene."""
+    hold tail), with ``jam`` also its jam measure (one more rollout); `FAILED` for a path phi
+    cannot roll out (the others are still priced), and for every path where phi cannot even
+    settle the member's scene."""
     world, cfg = member_world(scene, config, member)
     first, *others = paths.values()
     try:
         with stage_problem(world, first, cfg, "capsules", pool, knot_time, approach,
                            also=tuple(others)) as problem:
-            return {name: _rollout_or_failed(problem, q) for name, q in paths.items()}
+            return {name: _rollout_or_failed(problem, q, jam) for name, q in paths.items()}
     except (RuntimeError, ValueError):  # Drake's solver errors while settling
         return {name: FAILED for name in paths}
 
 
-def _rollout_or_failed(problem: StageProblem, q: np.ndarray) -> MemberRollout:
+def _rollout_or_failed(problem: StageProblem, q: np.ndarray, jam: bool) -> MemberRollout:
     try:
-        return _rollout(problem, q)
+        return _rollout(problem, q, jam)
     except (RuntimeError, ValueError):  # Drake's solver errors while stepping
         return FAILED
 
 
-def _rollout(problem: StageProblem, q: np.ndarray) -> MemberRollout:
+def _rollout(problem: StageProblem, q: np.ndarray, jam: bool = False) -> MemberRollout:
     zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
     if not np.all(np.isfinite(zs)):
         return FAILED
@@ -152,10 +155,21 @@ def _rollout(problem: StageProblem, q: np.ndarray) -> MemberRollout:
         x_end = ys[-1]
         steps += list(zip(ys[:-1], holds, strict=True))
     frozen = _reached_frozen(problem, steps)
+    worst = _worst_jam(problem, steps) if jam else None
     if not np.all(np.isfinite(x_end)):
-        return MemberRollout(terms, None, frozen)
+        return MemberRollout(terms, None, frozen, worst)
     return MemberRollout(terms, dict(zip(layout.box_names, layout.boxes(x_end).copy(),
-                                         strict=True)), frozen)
+                                         strict=True)), frozen, worst)
+
+
+def _worst_jam(problem: StageProblem, steps) -> float:
+    """The largest knot's jam measure (m, any kept box) over the (x, u) steps."""
+    phi = problem.dynamics.phi
+    worst = 0.0
+    for x, u in steps:
+        if np.all(np.isfinite(x)):
+            worst = max(worst, float(np.nan_to_num(phi.step_jam(x, u)[1]).max(initial=0.0)))
+    return worst
 
 
 def _reached_frozen(problem: StageProblem, steps) -> bool:

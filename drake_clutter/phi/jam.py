@@ -1,0 +1,181 @@
+"""A jam measure that does not depend on the contact's stiffness: how far the arm is commanded
+into a box that a rigid world would not let move.
+
+A compliant phi prices a jam at a few newtons (its boxes and its PD arm give way), where the
+judge's hard contact reads hundreds: the force depends on the stiffness, so it cannot be the
+measure. The geometry of the contacts does not. At a sub-step, a box the arm touches is
+**blocked** when the push cannot move it in a rigid world: the direction it is pushed in (the
+contact normal, from the arm into the box) is held by the friction cones of its contacts with
+static geometry (the shelf's board and walls, frozen boxes), or with boxes that are blocked in
+turn under the push it passes on (quasi-static, translation only, weight neglected: the arm is
+kinematic, so its force grows without bound). On a board alone a horizontal push is never
+blocked (the board's cone is about +z); a push down, or into a wall, is.
+
+The measure of a blocked box is the arm's **commanded** approach into it: the speed of the
+contact point on the arm, at the commanded joint velocities (not the PD arm's lagging ones),
+along the push direction, integrated over the blocked sub-steps (m). A rigid box would need a
+force that grows with it at the judge's contact stiffness; the caller converts
+(``DynamicsConfig.jam_stiffness``).
+
+Frames and units: W, metres, seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.geometry import Role
+from pydrake.multibody.tree import JacobianWrtVariable
+from scipy.optimize import nnls
+
+from drake_clutter.worlds.drake_world import World
+
+CONE_EDGES = 8  # generators of each friction cone's inscribed pyramid (ours)
+CONE_TOLERANCE = 1e-3  # residual below which a direction counts as held by the cones (ours)
+MAX_CHAIN = 4  # boxes followed along a chain of pushes (ours)
+MIN_FORCE = 1e-3  # N: a pair carrying less is within the hydroelastic margin, not touching (ours)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """One contact between nodes ``a`` and ``b`` (None: the shelf or another static body;
+    ``actor`` for the arm or pusher; box index otherwise): the unit ``normal`` pointing from
+    b into a, the ``point`` in W, the pair's Coulomb coefficient ``mu`` and the geometry id
+    of b (``geometry_b``: the actor's part, for its point's velocity)."""
+
+    a: object
+    b: object
+    normal: np.ndarray
+    point: np.ndarray
+    mu: float
+    geometry_b: object
+
+
+ACTOR = "actor"
+
+
+def _mean_normal(surface) -> tuple[np.ndarray, np.ndarray]:
+    """Area-weighted normal (out of N, into M) and centroid of a hydroelastic surface."""
+    mesh = surface.tri_mesh_W() if surface.is_triangle() else surface.poly_mesh_W()
+    normal = np.zeros(3)
+    for f in range(mesh.num_faces()):
+        normal += mesh.area(f) * mesh.face_normal(f)
+    return normal / max(np.linalg.norm(normal), 1e-12), np.asarray(surface.centroid())
+
+
+class JamReader:
+    """Reads the blocked boxes and the commanded approach into them from a Drake world's
+    current contact results. ``nodes`` maps collision geometry ids to ``ACTOR`` or a box index;
+    geometries absent from it (the shelf, frozen boxes) are static."""
+
+    def __init__(self, world: World, nodes: dict):
+        self.world, self.nodes = world, nodes
+        self._inspector = world.scene_graph.model_inspector()
+        self._mu: dict = {}
+
+    def _friction(self, id_a, id_b) -> float:
+        """Drake's pair coefficient 2ab / (a + b) of two geometries' static friction."""
+        key = (id_a, id_b) if id_a < id_b else (id_b, id_a)
+        if key not in self._mu:
+            mus = [self._inspector.GetProperties(g, Role.kProximity).GetProperty(
+                "material", "coulomb_friction").static_friction() for g in key]
+            self._mu[key] = 2 * mus[0] * mus[1] / max(mus[0] + mus[1], 1e-12)
+        return self._mu[key]
+
+    def contacts(self, context) -> list[Contact]:
+        """Every contact of the current step that carries a force (MIN_FORCE), both ways
+        round (each contact appears as (a, b) and (b, a))."""
+        results = self.world.plant.get_contact_results_output_port().Eval(context)
+        raw = []
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            if np.linalg.norm(info.contact_force()) < MIN_FORCE:
+                continue
+            pair = info.point_pair()
+            point = (np.asarray(pair.p_WCa) + np.asarray(pair.p_WCb)) / 2
+            raw.append((pair.id_A, pair.id_B, np.asarray(pair.nhat_BA_W), point))
+        for i in range(results.num_hydroelastic_contacts()):
+            info = results.hydroelastic_contact_info(i)
+            if np.linalg.norm(info.F_Ac_W().translational()) < MIN_FORCE:
+                continue
+            surface = info.contact_surface()
+            normal, point = _mean_normal(surface)
+            raw.append((surface.id_M(), surface.id_N(), normal, point))
+        out = []
+        for id_a, id_b, normal, point in raw:
+            a, b = self.nodes.get(id_a), self.nodes.get(id_b)
+            if a == b:
+                continue
+            mu = self._friction(id_a, id_b)
+            out.append(Contact(a, b, normal, point, mu, id_b))
+            out.append(Contact(b, a, -normal, point, mu, id_a))
+        return out
+
+    def approach(self, context, v_commanded: np.ndarray) -> dict:
+        """box index -> the actor's commanded approach speed into it while it is blocked
+        (m/s, the largest over the actor's contacts with it; boxes not blocked are absent).
+        ``v_commanded`` is the plant's generalized velocity with the actor's commanded joint
+        velocities (zero elsewhere)."""
+        contacts = self.contacts(context)
+        out: dict = {}
+        for c in contacts:
+            if c.b != ACTOR or c.a in (None, ACTOR):
+                continue
+            push = c.normal  # from the actor into the box
+            if not blocked(c.a, push, contacts, (c.a,)):
+                continue
+            speed = float(self._point_velocity(context, c.geometry_b, c.point, v_commanded)
+                          @ push)
+            out[c.a] = max(out.get(c.a, 0.0), speed)
+        return out
+
+    def _point_velocity(self, context, geometry, point: np.ndarray,
+                        v_commanded: np.ndarray) -> np.ndarray:
+        """Velocity in W (m/s) of the material point at ``point`` (W) of the body carrying
+        ``geometry``, under the generalized velocity ``v_commanded``."""
+        plant = self.world.plant
+        body = plant.GetBodyFromFrameId(self._inspector.GetFrameId(geometry))
+        X_WB = plant.EvalBodyPoseInWorld(context, body)
+        J = plant.CalcJacobianTranslationalVelocity(
+            context, JacobianWrtVariable.kV, body.body_frame(), X_WB.inverse() @ point,
+            plant.world_frame(), plant.world_frame())
+        return J @ v_commanded
+
+
+def _cone_generators(normal: np.ndarray, mu: float) -> np.ndarray:
+    """(CONE_EDGES, 3) unit generators of the pyramid inscribed in the friction cone about
+    ``normal`` with coefficient ``mu``."""
+    helper = np.eye(3)[np.argmin(np.abs(normal))]
+    t1 = np.cross(normal, helper)
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(normal, t1)
+    angles = 2 * np.pi * np.arange(CONE_EDGES) / CONE_EDGES
+    edges = normal[None, :] + mu * (np.cos(angles)[:, None] * t1 + np.sin(angles)[:, None] * t2)
+    return edges / np.linalg.norm(edges, axis=1, keepdims=True)
+
+
+def held(direction: np.ndarray, generators: list[np.ndarray]) -> bool:
+    """Whether the reactions ``generators`` (unit rows) can balance a push along
+    ``direction``: -direction lies in their cone (non-negative least squares)."""
+    if not generators:
+        return False
+    G = np.vstack(generators).T
+    _, residual = nnls(G, -np.asarray(direction, dtype=float))
+    return residual < CONE_TOLERANCE
+
+
+def blocked(box, push: np.ndarray, contacts: list[Contact], chain: tuple = ()) -> bool:
+    """Whether ``box``, pushed along the unit ``push``, cannot move in a rigid world: its
+    static contacts' friction cones, and those of boxes it presses that are blocked in turn
+    (followed up to MAX_CHAIN boxes, never back along ``chain``), hold the push."""
+    generators = []
+    for c in contacts:
+        if c.a != box or c.b == ACTOR:
+            continue
+        if c.b is None:
+            generators.extend(_cone_generators(c.normal, c.mu))
+        elif c.b not in chain and len(chain) < MAX_CHAIN and float(c.normal @ push) < 0.0:
+            if blocked(c.b, -c.normal, contacts, chain + (c.b,)):
+                generators.extend(_cone_generators(c.normal, c.mu))
+    return held(push, generators)

@@ -1,0 +1,75 @@
+"""phi's jam measure (phi/jam.py): the rigid, quasi-static blocked test on synthetic contacts,
+and `Phi.step_jam` on a real reach."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drake_clutter.common.config import DynamicsConfig
+from drake_clutter.phi.dynamics import ARM_NODE, Phi, initial_state
+from drake_clutter.phi.jam import ACTOR, Contact, blocked, held
+from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.state import scene_box_states
+from drake_clutter.scene.generators import generate_scene
+from drake_clutter.testing.reach_paths import straight_reach
+
+UP = np.array([0.0, 0.0, 1.0])
+
+
+def _both(a, b, normal_into_a, mu=0.5) -> list[Contact]:
+    n = np.asarray(normal_into_a, float)
+    return [Contact(a, b, n, np.zeros(3), mu, None), Contact(b, a, -n, np.zeros(3), mu, None)]
+
+
+def _board(box, mu=0.5) -> list[Contact]:
+    return _both(box, None, UP, mu)
+
+
+def test_a_horizontal_push_on_a_board_is_not_blocked_but_a_push_down_is():
+    contacts = _board(0) + _both(0, ACTOR, [-1.0, 0.0, 0.0])
+    assert not blocked(0, np.array([1.0, 0.0, 0.0]), contacts)
+    assert blocked(0, np.array([0.0, 0.0, -1.0]), contacts)
+    steep = np.array([np.sin(0.3), 0.0, -np.cos(0.3)])  # 17 deg from vertical: inside mu 0.5
+    shallow = np.array([np.sin(0.8), 0.0, -np.cos(0.8)])  # 46 deg: outside (26.6 deg)
+    assert blocked(0, steep, contacts) and not blocked(0, shallow, contacts)
+
+
+def test_a_wall_blocks_a_push_into_it_and_a_free_box_in_a_chain_does_not():
+    wall = _both(0, None, [-1.0, 0.0, 0.0])  # a wall ahead along +x
+    push = np.array([1.0, 0.0, 0.0])
+    assert blocked(0, push, _board(0) + wall)
+    chain = _board(0) + _board(1) + _both(0, 1, [-1.0, 0.0, 0.0])  # box 1 ahead of box 0
+    assert not blocked(0, push, chain)
+    assert blocked(0, push, chain + _both(1, None, [-1.0, 0.0, 0.0]))  # box 1 at a wall
+
+
+def test_held_is_cone_membership():
+    assert held(np.array([0.0, 0.0, -1.0]), [UP])
+    assert not held(np.array([0.0, 0.0, 1.0]), [UP])
+    assert not held(np.array([1.0, 0.0, 0.0]), [])
+
+
+@pytest.fixture(scope="module")
+def reach():
+    scene = generate_scene("bookshelf", 10, seed=0)
+    path = straight_reach(scene)
+    spec, _ = make_pruned_spec(scene, path, config=DynamicsConfig(workers=0))
+    phi = Phi(spec)
+    return phi, phi.settle(initial_state(spec.layout, path[0], scene_box_states(scene))), path
+
+
+def test_step_jam_steps_phi_bit_for_bit_and_reads_no_jam_on_a_free_reach(reach):
+    """The reach pushes box_06 6 cm along the board: it slides, nothing is blocked."""
+    phi, x0, path = reach
+    x_plain, x_jam = x0, x0
+    touched = False
+    for u in path[1:15]:
+        touched |= any(ARM_NODE in e and min(e) >= 0 for e in phi.step_traced(x_plain, u)[1])
+        x_plain = phi.step(x_plain, u)
+        x_jam, jam = phi.step_jam(x_jam, u)
+        np.testing.assert_array_equal(x_plain, x_jam)
+        assert jam.shape == (phi.layout.num_boxes,) and np.all(jam == 0.0)
+    assert touched
+    x_nan, jam = phi.step_jam(np.full_like(x0, np.nan), path[1])
+    assert np.isnan(x_nan).all() and np.isnan(jam).all()

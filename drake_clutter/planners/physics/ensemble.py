@@ -135,7 +135,7 @@ def member_rollouts(scene: Scene, paths: dict[str, np.ndarray], config: Config, 
         return {name: FAILED for name in paths}
 
 
-def _rollout_or_failed(problem: StageProblem, q: np.ndarray, jam: bool) -> MemberRollout:
+def _rollout_or_failed(problem: StageProblem, q: np.ndarray, jam: bool = False) -> MemberRollout:
     try:
         return _rollout(problem, q, jam)
     except (RuntimeError, ValueError):  # Drake's solver errors while stepping

@@ -96,10 +96,10 @@ def test_a_path_phi_cannot_roll_out_fails_alone(scene, baseline_path, monkeypatc
 
     real = ensemble._rollout
 
-    def raising(problem, q):
+    def raising(problem, q, jam=False):
         if q[-1, 0] != baseline_path[-1, 0]:
             raise RuntimeError("SAP failed to converge")
-        return real(problem, q)
+        return real(problem, q, jam)
 
     monkeypatch.setattr(ensemble, "_rollout", raising)
     moved = baseline_path.copy()
@@ -107,6 +107,11 @@ def test_a_path_phi_cannot_roll_out_fails_alone(scene, baseline_path, monkeypatc
     out = member_rollouts(scene, {"baseline": baseline_path, "moved": moved}, Config(), 0)
     assert out["moved"] == ensemble.FAILED
     assert out["baseline"].terms is not None and np.isfinite(sum(out["baseline"].terms.values()))
+    assert out["baseline"].jam is None  # read only when asked for
+    jammed = member_rollouts(scene, {"baseline": baseline_path, "moved": moved}, Config(), 0,
+                             jam=True)
+    assert jammed["moved"] == ensemble.FAILED and jammed["baseline"].jam >= 0.0
+    assert jammed["baseline"].terms == out["baseline"].terms
 
 
 def test_scores_in_shared_members_do_not_depend_on_what_was_scored_before(scene, baseline_path):

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 
 from drake_clutter.conformance.scenarios import Scenario
+from drake_clutter.worlds.drake_world import drake_pair_friction
 
 TOLERANCE = 1e-6  # relative error allowed on a realised pair
 _SMALLEST_COEFFICIENT = 1e-3
@@ -59,7 +60,7 @@ def drake_coefficients(scenario: Scenario) -> dict[str, float]:
     reciprocal = _solve(a, 2.0 / np.array(mus), float(np.mean(1.0 / np.array(mus))),
                         1.0 / _LARGEST_COEFFICIENT, 1.0 / _SMALLEST_COEFFICIENT)
     coefficients = dict(zip(bodies, 1.0 / reciprocal, strict=True))
-    _check(scenario, coefficients, lambda x, y: 2 * x * y / (x + y), "Drake")
+    _check(scenario, coefficients, drake_pair_friction, "Drake")
     return coefficients
 
 

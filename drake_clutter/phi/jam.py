@@ -14,8 +14,8 @@ blocked (the board's cone is about +z); a push down, or into a wall, is.
 The measure of a blocked box is the arm's **commanded** approach into it: the speed of the
 contact point on the arm, at the commanded joint velocities (not the PD arm's lagging ones),
 along the push direction, integrated over the blocked sub-steps (m). A rigid box would need a
-force that grows with it at the judge's contact stiffness; the caller converts
-(``DynamicsConfig.jam_stiffness``).
+force that grows with it at the judge's contact stiffness (on the conformance suite's
+squeezes Bullet reads about 700 N per mm); ``DynamicsConfig.jam_depth`` reads a jam.
 
 Frames and units: W, metres, seconds.
 """
@@ -29,7 +29,7 @@ from pydrake.geometry import Role
 from pydrake.multibody.tree import JacobianWrtVariable
 from scipy.optimize import nnls
 
-from drake_clutter.worlds.drake_world import World
+from drake_clutter.worlds.drake_world import World, drake_pair_friction
 
 CONE_EDGES = 8  # generators of each friction cone's inscribed pyramid (ours)
 CONE_TOLERANCE = 1e-3  # residual below which a direction counts as held by the cones (ours)
@@ -75,12 +75,12 @@ class JamReader:
         self._mu: dict = {}
 
     def _friction(self, id_a, id_b) -> float:
-        """Drake's pair coefficient 2ab / (a + b) of two geometries' static friction."""
+        """Drake's pair coefficient of two geometries' static friction."""
         key = (id_a, id_b) if id_a < id_b else (id_b, id_a)
         if key not in self._mu:
             mus = [self._inspector.GetProperties(g, Role.kProximity).GetProperty(
                 "material", "coulomb_friction").static_friction() for g in key]
-            self._mu[key] = 2 * mus[0] * mus[1] / max(mus[0] + mus[1], 1e-12)
+            self._mu[key] = drake_pair_friction(*mus)
         return self._mu[key]
 
     def contacts(self, context) -> list[Contact]:

@@ -161,6 +161,12 @@ def _add_shelf(builder: RobotDiagramBuilder, scene: Scene, friction: float = SHE
     return shelf
 
 
+def drake_pair_friction(a: float, b: float) -> float:
+    """Drake's Coulomb coefficient of a contact between geometries of coefficients a and b:
+    2ab / (a + b) (0 when both are 0)."""
+    return 2.0 * a * b / (a + b) if a + b > 0 else 0.0
+
+
 def box_friction(mu: float, config: WorldConfig) -> float:
     """The Coulomb coefficient a box of scene friction ``mu`` gets in Drake: ``mu`` itself,
     or with ``config.friction_as_bullet`` the one whose Drake pair with the shelf and the arm

@@ -103,8 +103,9 @@ class _Run:
         return f
 
     def jam(self) -> np.ndarray:
-        """phi's jam measure per box (m): the largest sum of the approach over one knot's
-        sub-steps (as `Phi.step_jam` reads a knot)."""
+        """phi's jam measure per box (m): the largest sum of the approach over any run of one
+        knot's sub-steps (a scripted run has no knots; `Phi.step_jam` sums within each knot,
+        so it reads at most this)."""
         n = self.config.dynamics.substeps
         if not self.approach:
             return np.zeros(len(self.bodies))

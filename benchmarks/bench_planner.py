@@ -4,7 +4,8 @@ candidate optimised) against the number of boxes, with the seconds of each stage
 full, post): the project's Fig. 9c.
 
     python benchmarks/bench_planner.py                          # every Sec. VI-B level
-    python benchmarks/bench_planner.py --kind bookshelf --levels 1 25 --set physics.iterations=6
+    python benchmarks/bench_planner.py --kind bookshelf --levels 1 25 \
+        --set physics.iterations=6 --set physics.sphere_iterations=2
 
 Target: at most 60 s per initialization at 25 boxes on the project's 2-core machine.
 Scenes are the first of each level of the 'paper' set; per scene the baseline plans

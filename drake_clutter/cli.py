@@ -97,13 +97,13 @@ def _cmd_evaluate(args) -> int:
     import dataclasses
     import json
 
+    from drake_clutter.common.config import check_config
     from drake_clutter.evaluation.judge import (
         check_plan,
         evaluate_candidates,
         outcome_table,
         outcomes_document,
     )
-    from drake_clutter.evaluation.robust import check_robust
     from drake_clutter.scene.scenes import resolve_scene
     from drake_clutter.trajectory import load_plan
 
@@ -118,7 +118,7 @@ def _cmd_evaluate(args) -> int:
         if args.seed < 0:
             raise InputError("<command line>", "--seed", f"must be non-negative, got {args.seed}")
         evaluation = dataclasses.replace(evaluation, robust_seed=args.seed)
-    check_robust(evaluation, args.config or "<command line>")
+    check_config(evaluation, args.config or "<command line>", "evaluation")
     scene = resolve_scene(args.scene)
     plan_scene, candidates, _ = load_plan(args.plan)
     check_plan(scene, plan_scene, candidates, args.plan)
@@ -212,14 +212,10 @@ def _cmd_experiment_run(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from drake_clutter.experiments.report import (
-        check_report_config,
-        write_report,
-    )
+    from drake_clutter.experiments.report import write_report
     from drake_clutter.experiments.store import Store
 
     config = _load_config(args)
-    check_report_config(config.report, args.config or "<command line>")
     with Store(args.db, create=False) as store:
         rows = store.rows()
     configs = list(dict.fromkeys(r["config_name"] for r in rows))

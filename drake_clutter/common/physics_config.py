@@ -12,67 +12,76 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from drake_clutter.common.accepts import bounded
+
 
 @dataclass(frozen=True)
 class DynamicsConfig:
     """phi as iLQR's dynamics and its derivatives (Sec. V)."""
 
     # finite-difference step of phi's Jacobians, state units (m, rad, m/s); Sec. V
-    fd_step: float = 1e-6
+    fd_step: float = bounded(1e-6, gt=0.0)
     # finite-difference scheme ("forward" or "central"), choice; Sec. V
     fd_scheme: Literal["forward", "central"] = "forward"
     # margin around the arm's swept volume within which boxes stay dynamic, m; ours
-    prune_margin: float = 0.05
+    prune_margin: float = bounded(0.05, ge=0.0)
     # Jacobians A_t, B_t every k-th knot and the last, interpolated between (1: all), count; ours
-    derivative_stride: int = 3
+    derivative_stride: int = bounded(3, ge=1)
     # the stride skips only quiet knots (no arm-box contact, no box moving), flag; ours
     stride_quiet_only: bool = False
     # a box moves at a knot when |v| + 0.1 m x |w| at its end exceeds this, m/s; ours
-    quiet_speed: float = 0.01
+    quiet_speed: float = bounded(0.01, ge=0.0)
     # how phi's Jacobians are taken ("fd", "autodiff", "hybrid"), choice; ours
     derivative_method: Literal["fd", "autodiff", "hybrid"] = "hybrid"
     # colour groups at a knot from which "hybrid" takes AutoDiffXd, count; ours
-    autodiff_min_groups: int = 20
+    autodiff_min_groups: int = bounded(20, ge=1)
     # contact approximation phi's Jacobians are taken with ("rollout", "sap"), choice; ours
     linearize_approximation: Literal["rollout", "sap"] = "rollout"
     # parallel derivative workers (0 = serial, in the calling process), count; ours
-    workers: int = 2
+    workers: int = bounded(2, ge=0)
     # SAP sub-steps of phi per knot (0.2 s knots / 10 = 20 ms), count; ours
-    substeps: int = 10
+    substeps: int = bounded(10, ge=1)
     # box contact geometry in phi ("point", "spheres", "hydroelastic", "edges"), choice; ours
     contact_model: Literal["point", "spheres", "hydroelastic", "edges"] = "edges"
     # radius of the spheres inside the box corners ("point", "spheres"), m; ours
-    corner_sphere_radius: float = 0.004
+    corner_sphere_radius: float = bounded(0.004, gt=0.0)
     # radius of the spheres on the box edges that meet the shelf ("edges"), m; ours
-    edge_sphere_radius: float = 0.001
+    edge_sphere_radius: float = bounded(0.001, gt=0.0)
     # largest gap between the spheres along a box edge ("edges"; 0: corners only), m; ours
-    edge_sphere_spacing: float = 0.02
+    edge_sphere_spacing: float = bounded(0.02, ge=0.0)
     # depth of phi's board collision box under the edge spheres ("edges": none tunnel), m; ours
-    edge_board_depth: float = 0.1
+    edge_board_depth: float = bounded(0.1, gt=0.0)
     # one knot's commanded approach into a blocked box read as a jam (phi.jam), m; ours
-    jam_depth: float = 0.001
+    jam_depth: float = bounded(0.001, gt=0.0)
     # bodies closer than this at a sub-step's start may interact in that step, m; ours
-    interaction_margin: float = 1e-3
+    interaction_margin: float = bounded(1e-3, gt=0.0)
     # largest state change for which a resting box reuses its Jacobian block, m, rad, m/s; ours
-    known_block_tolerance: float = 1e-7
+    known_block_tolerance: float = bounded(1e-7, ge=0.0)
     # boxes within this of a kept box are kept too (transitively), m; ours
-    prune_contact_range: float = 0.01
+    prune_contact_range: float = bounded(0.01, ge=0.0)
     # rollouts that check the kept set (frozen boxes reached become dynamic), count; ours
-    prune_rounds: int = 3
+    prune_rounds: int = bounded(3, ge=0)
     # arm poses per knot interval for the swept volume, count; ours
-    prune_samples_per_knot: int = 4
+    prune_samples_per_knot: int = bounded(4, ge=1)
     # time the boxes rest under the still arm before planning, s; ours
-    settle_time: float = 3.0
+    settle_time: float = bounded(3.0, ge=0.0)
     # traced steps remembered for linearize (2 iLQR horizons of line search), count; ours
-    step_cache_size: int = 512
+    step_cache_size: int = bounded(512, ge=1)
     # multiple of a box's weight beyond which its shelf force counts in c_force, unitless; ours
-    shelf_force_allowance: float = 1.5
+    shelf_force_allowance: float = bounded(1.5, ge=0.0)
     # cap on a box's translational speed after every SAP sub-step, m/s; ours
-    max_box_speed: float = 5.0
+    max_box_speed: float = bounded(5.0, gt=0.0)
     # cap on a box's angular speed after every SAP sub-step, rad/s; ours
-    max_box_spin: float = 30.0
+    max_box_spin: float = bounded(30.0, gt=0.0)
     # |number| in a box state beyond which a step counts as diverged, m, m/s, rad/s; ours
-    divergence_limit: float = 1.0e6
+    divergence_limit: float = bounded(1.0e6, gt=0.0)
+
+    def relations(self):
+        """(field, holds, what it must be) between this dataclass's fields."""
+        return [("derivative_method",
+                 not (self.derivative_method == "autodiff" and self.contact_model == "point"),
+                 "other than 'autodiff' with contact_model 'point' (no AutoDiffXd Box-Box "
+                 "queries)")]
 
 
 @dataclass(frozen=True)
@@ -80,89 +89,89 @@ class PhysicsConfig:
     """The physics-based planner (Sec. V, Tables I and II)."""
 
     # cap on the iLQR iterations, count; Sec. V
-    iterations: int = 30
+    iterations: int = bounded(30, ge=0)
     # first iterations run with the sphere gripper proxy, count; Sec. V
-    sphere_iterations: int = 10
+    sphere_iterations: int = bounded(10, ge=0)
     # the target in the sphere stage's phi ("passes" or "parked"), choice; ours
     sphere_target: Literal["passes", "parked"] = "parked"
     # weight of c_static, unitless; Table II
-    w_static: float = 1e3
+    w_static: float = bounded(1e3, ge=0.0)
     # weight of c_acc, unitless; Table II
-    w_acc: float = 1e-3
+    w_acc: float = bounded(1e-3, ge=0.0)
     # multiple of c_acc's Hessian added to the phi stages' model only (0 = off), unitless; ours
-    step_smoothing: float = 0.0
+    step_smoothing: float = bounded(0.0, ge=0.0)
     # weight of c_static's steep part in the phi stages (0 = off), unitless; ours
-    w_static_deep: float = 0.0
+    w_static_deep: float = bounded(0.0, ge=0.0)
     # depth the arm may sink into the shelf before c_static's steep part, m; ours
-    static_depth: float = 0.003
+    static_depth: float = bounded(0.003, ge=0.0)
     # configurations per knot interval in the phi stages' c_static (1: the knot), count; ours
-    phi_static_substeps: int = 1
+    phi_static_substeps: int = bounded(1, ge=1)
     # weight of c_force (Table II says 10), unitless; ours
-    w_force: float = 0.01
+    w_force: float = bounded(0.01, ge=0.0)
     # weight of c_force_excess on phi's forces beyond force_limit (0 = off), unitless; ours
-    w_force_excess: float = 0.0
+    w_force_excess: float = bounded(0.0, ge=0.0)
     # force at which c_force_excess starts, N; ours
-    force_limit: float = 30.0
+    force_limit: float = bounded(30.0, ge=0.0)
     # weight of c_motion, unitless; Table II
-    w_motion: float = 1e-3
+    w_motion: float = bounded(1e-3, ge=0.0)
     # weight of c_upright, unitless; Table II
-    w_upright: float = 1.0
+    w_upright: float = bounded(1.0, ge=0.0)
     # weight of the terminal c_grasp, unitless; Table II
-    w_grasp: float = 1e3
+    w_grasp: float = bounded(1e3, ge=0.0)
     # weight of the terminal c_grp_horiz, unitless; Table II
-    w_grp_horiz: float = 1.0
+    w_grp_horiz: float = bounded(1.0, ge=0.0)
     # weight of the terminal c_grp_open, unitless; Table II
-    w_grp_open: float = 1.0
+    w_grp_open: float = bounded(1.0, ge=0.0)
     # weight of c_dynamic in the Sec. V-A pre-processing (as w_static_hull), unitless; ours
-    w_dynamic: float = 80.0
+    w_dynamic: float = bounded(80.0, ge=0.0)
     # weight of c_press, the arm's penetration into a box from above (0 = off), unitless; ours
-    w_press: float = 0.0
+    w_press: float = bounded(0.0, ge=0.0)
     # up component of a contact normal (box to arm) beyond which the arm presses, unitless; ours
-    press_normal_z: float = 0.5
+    press_normal_z: float = bounded(0.5, ge=0.0, lt=1.0)
     # the boxes' poses the phi stages' c_press reads ("phi": phi's; "start": at rest), choice; ours
     press_poses: Literal["phi", "start"] = "start"
     # weight of c_match in the Sec. V-B post-processing, unitless; ours
-    w_match: float = 1.0
+    w_match: float = bounded(1.0, ge=0.0)
     # weight of c_match_vel in the Sec. V-B post-processing, unitless; ours
-    w_match_vel: float = 1.0
+    w_match_vel: float = bounded(1.0, ge=0.0)
     # knots phi runs past Delta with the arm held (Table II's "all"), count; ours
-    hold_knots: int = 5
+    hold_knots: int = bounded(5, ge=0)
     # weight of c_settled_upright, each box's tilt (rad) at the hold tail's end, unitless; ours
-    w_settled_upright: float = 0.0
+    w_settled_upright: float = bounded(0.0, ge=0.0)
     # weight of c_settled_fall, each box's saturated distance off the board there, unitless; ours
-    w_settled_fall: float = 0.0
+    w_settled_fall: float = bounded(0.0, ge=0.0)
     # distance off the board at which a box's c_settled_fall is half its weight, m; ours
-    settled_fall_scale: float = 0.02
+    settled_fall_scale: float = bounded(0.02, gt=0.0)
     # derivative stride of the hold knots' Jacobians (None: dynamics'), count; ours
-    hold_derivative_stride: int | None = None
+    hold_derivative_stride: int | None = bounded(None, ge=1)
     # weight of c_speed, the squared excess over the speed cap, unitless; ours
-    w_speed: float = 1.0e4
+    w_speed: float = bounded(1.0e4, ge=0.0)
     # c_speed's cap, a fraction of the PR2's joint speed limits, unitless; ours
-    speed_fraction: float = 0.25
+    speed_fraction: float = bounded(0.25, gt=0.0)
     # smoothing eps of c_grasp = sqrt(d^2 + eps^2) - eps, m; ours
-    grasp_smoothing: float = 0.005
+    grasp_smoothing: float = bounded(0.005, gt=0.0)
     # Hessian of the phi stages' c_grasp and c_upright ("gauss_newton", "majorizer"), choice; ours
     distance_curvature: Literal["gauss_newton", "majorizer"] = "majorizer"
     # Hessian of c_upright ("tilt": J'J/s of z's horizontal part; "angle": as c_grasp), choice; ours
     upright_curvature: Literal["tilt", "angle"] = "tilt"
     # last knots (Delta included) held on the straight approach (0 = off), count; ours
-    approach_knots: int = 0
+    approach_knots: int = bounded(0, ge=0)
     # weight of c_approach = 1/2 offset^2 (m^2; 1 cm costs 5), unitless; ours
-    w_approach: float = 1e5
+    w_approach: float = bounded(1e5, ge=0.0)
     # weight of c_approach_axis = 1 - x_G.d (0.1 rad costs 5), unitless; ours
-    w_approach_axis: float = 1e3
+    w_approach_axis: float = bounded(1e3, ge=0.0)
     # force(q, x) of c_force ("phi": phi's contact forces, or "proxy"), choice; Table I
     force_source: Literal["phi", "proxy"] = "phi"
     # stiffness of c_force's penetration-to-force proxy, N/m; ours
-    force_stiffness: float = 1.0e3
+    force_stiffness: float = bounded(1.0e3, gt=0.0)
     # configurations per knot interval in c_static_hull / c_dynamic, count; ours
-    hull_substeps: int = 2
+    hull_substeps: int = bounded(2, ge=1)
     # iLQR iterations of the Sec. V-A pre-processing, count; ours
-    pre_iterations: int = 10
+    pre_iterations: int = bounded(10, ge=0)
     # multiple of w_grasp and w_grp_horiz at the pre-processing's last knot, unitless; ours
-    pre_terminal_weight: float = 100.0
+    pre_terminal_weight: float = bounded(100.0, ge=0.0)
     # w_vel of the pre-processing's c_vel (None: the baseline's), unitless; Sec. V-A
-    pre_w_vel: float | None = None
+    pre_w_vel: float | None = bounded(None, ge=0.0)
     # the pre-processing keeps the baseline's last knot and gripper openings (bounds), flag; ours
     pre_keep_pregrasp: bool = True
     # the post-processing keeps its reference's last knot and gripper openings (bounds), flag; ours
@@ -174,69 +183,69 @@ class PhysicsConfig:
     # select ranks paths that press on a box's top (path_press) after the rest, flag; ours
     select_press: bool = True
     # grasp heights also tried per angle (height_choice picks), of target height, unitless; ours
-    grasp_heights: tuple[float, ...] = (0.6, 0.7, 0.8, 0.9)
+    grasp_heights: tuple[float, ...] = bounded((0.6, 0.7, 0.8, 0.9), gt=0.0, le=1.0)
     # approach angle offsets also tried at every grasp height (height_choice picks), rad; ours
-    approach_offsets: tuple[float, ...] = ()
+    approach_offsets: tuple[float, ...] = bounded((), ge=-0.5, le=0.5)
     # grasp height chosen by the press check, it and side contact ("clear") or phi, choice; ours
     height_choice: Literal["phi", "press", "clear"] = "clear"
     # deepest press (physics.press_normal_z) the height choice and select count as none, m; ours
-    press_tolerance: float = 0.0005
+    press_tolerance: float = bounded(0.0005, ge=0.0)
     # deepest side penetration of a non-target box the "clear" height choice counts as none, m; ours
-    side_tolerance: float = 0.005
+    side_tolerance: float = bounded(0.005, ge=0.0)
     # configurations per knot interval the press check reads, count; ours
-    press_substeps: int = 4
+    press_substeps: int = bounded(4, ge=1)
     # search before the phi stages ("none", or "sampling": see sampling.py), choice; ours
     search: Literal["none", "sampling"] = "none"
     # rounds of the sampling search (cross-entropy refits), count; ours
-    search_rounds: int = 3
+    search_rounds: int = bounded(3, ge=1)
     # paths drawn per round of the sampling search, count; ours
-    search_samples: int = 8
+    search_samples: int = bounded(8, ge=1)
     # best fraction of a round's scored paths the next round's Gaussian is fitted to, unitless; ours
-    search_elite: float = 0.25
+    search_elite: float = bounded(0.25, gt=0.0, le=1.0)
     # half-range of the search's sideways move of the tool frame (W's y), m; ours
-    search_lateral: float = 0.03
+    search_lateral: float = bounded(0.03, ge=0.0)
     # half-range of the search's vertical move of the tool frame (W's z), m; ours
-    search_height: float = 0.02
+    search_height: float = bounded(0.02, ge=0.0)
     # half-range of the search's turn of the tool frame about W's z, rad; ours
-    search_yaw: float = 0.15
+    search_yaw: float = bounded(0.15, ge=0.0)
     # half-range of the search's change of the gripper's opening, m; ours
-    search_opening: float = 0.02
+    search_opening: float = bounded(0.02, ge=0.0, le=0.09)
     # seed of the sampling search's draws, integer; ours
-    search_seed: int = 0
+    search_seed: int = bounded(0, ge=0)
     # knots before the start path's first arm-box contact where search offsets begin, count; ours
-    search_lead_knots: int = 3
+    search_lead_knots: int = bounded(3, ge=0)
     # the search scores every sample in one phi per member built once for the search, flag; ours
     search_shared_phi: bool = True
     # extra prune margin of that shared phi, for the samples' own sweeps, m; ours
-    search_prune_margin: float = 0.08
+    search_prune_margin: float = bounded(0.08, ge=0.0)
     # times the search rebuilds its phis to free frozen boxes its samples reach, count; ours
-    search_rebuilds: int = 2
+    search_rebuilds: int = bounded(2, ge=0)
     # iLQR iterations of the Sec. V-B post-processing, count; ours
-    post_iterations: int = 40
+    post_iterations: int = bounded(40, ge=0)
     # largest arm-point travel between swept-cost samples (0: fixed counts alone), m; ours
-    sweep_spacing: float = 0.01
+    sweep_spacing: float = bounded(0.01, ge=0.0)
     # arm geometry variant of the post-processing's c_static, name; Sec. V-B
-    post_variant: str = "evaluation"
+    post_variant: Literal["capsules", "sphere_gripper", "evaluation"] = "evaluation"
     # configurations per knot interval in the post-processing's c_static, count; ours
-    post_substeps: int = 6
+    post_substeps: int = bounded(6, ge=1)
     # relative cost decrease that stops iLQR (the solver's default), unitless; ours
-    tolerance: float = 1e-6
+    tolerance: float = bounded(1e-6, ge=0.0)
     # a step's share of a phi stage's decrease that counts as stalled (0 = off), unitless; ours
-    stall_fraction: float = 0.05
+    stall_fraction: float = bounded(0.05, ge=0.0, lt=1.0)
     # accepted steps in a row under stall_fraction that stop a phi stage, count; ours
-    stall_iterations: int = 2
+    stall_iterations: int = bounded(2, ge=1)
     # step sizes tried per backward pass (every stage), count; ours
-    line_search_steps: int = 6
+    line_search_steps: int = bounded(6, ge=1)
     # phi stages roll out dynamics.workers step sizes at once, flag; ours
     parallel_line_search: bool = True
     # each line search starts at twice the last accepted step, flag; ours
     adaptive_step: bool = True
     # phi stages' trust region, a fraction of the per-knot speed-limit step, unitless; ours
-    step_limit_fraction: float = 0.5
+    step_limit_fraction: float = bounded(0.5, gt=0.0)
     # failed line searches in one iteration that stop a stage, count; ours
-    max_failed_searches: int = 1
+    max_failed_searches: int = bounded(1, ge=1)
     # cap on the spectral radius of phi's box-to-box Jacobian per knot, unitless; ours
-    max_spectral_radius: float = 1.0
+    max_spectral_radius: float = bounded(1.0, gt=0.0)
     # rows the cap scales ("box": each unstable box's own first; "block": every box's), choice; ours
     spectral_cap_scope: Literal["box", "block"] = "box"
     # phi stages retry a failed line search open loop (K = 0), flag; ours
@@ -248,9 +257,9 @@ class PhysicsConfig:
     # controls of the phi stages: every knot ("knots", Sec. V) or B-spline points, choice; ours
     controls: Literal["knots", "spline"] = "spline"
     # B-spline control points of "spline" controls (the baseline's, Sec. IV), count; ours
-    control_points: int = 10
+    control_points: int = bounded(10, ge=2)
     # smallest control move that keeps a phi stage going (0 = off), rad (m: opening); ours
-    min_step: float = 1e-3
+    min_step: float = bounded(1e-3, ge=0.0)
     # every stage's backward pass solves each knot's box-constrained QP (Tassa 2014), flag; ours
     box_qp: bool = True
     # the phi stages' trust region bounds the backward pass's QP, not only clips, flag; ours
@@ -258,9 +267,16 @@ class PhysicsConfig:
     # the phi stages' trust region adapts to actual / predicted decrease, flag; ours
     trust_adapt: bool = True
     # least actual / predicted decrease of an accepted phi-stage step (0: any), unitless; ours
-    accept_ratio: float = 0.0
+    accept_ratio: float = bounded(0.0, ge=0.0, lt=1.0)
     # the phi stages' regulariser is scaled per control by its trust-region step, flag; ours
     scaled_regulariser: bool = True
+
+    def relations(self):
+        """(field, holds, what it must be) between this dataclass's fields."""
+        return [("sphere_iterations", self.sphere_iterations <= self.iterations,
+                 f"at most iterations ({self.iterations})"),
+                ("w_static_deep", self.w_static_deep == 0 or self.w_static > 0,
+                 "0 while w_static is 0 (it scales the steep part)")]
 
 
 @dataclass(frozen=True)
@@ -268,22 +284,22 @@ class EnsembleConfig:
     """phi's ensemble: a plan scored over K perturbed rollouts (beyond the paper): all ours."""
 
     # members of phi's ensemble, the nominal scene first (1: phi alone), count; ours
-    members: int = 1
+    members: int = bounded(1, ge=1)
     # seed of the members' worlds (member k draws from [seed, k]), integer; ours
-    seed: int = 1000
+    seed: int = bounded(1000, ge=0)
     # half-range of each box's initial shift along x and y (uniform), m; ours
-    position: float = 0.003
+    position: float = bounded(0.003, ge=0.0)
     # half-range of each box's initial yaw change (uniform; 3 deg), rad; ours
-    yaw: float = 0.05
+    yaw: float = bounded(0.05, ge=0.0)
     # half-range of each box's relative mass change (uniform), unitless; ours
-    mass: float = 0.2
+    mass: float = bounded(0.2, ge=0.0, lt=1.0)
     # half-range of each box's relative friction change (uniform), unitless; ours
-    friction: float = 0.2
+    friction: float = bounded(0.2, ge=0.0, lt=1.0)
     # member 1 pairs friction as Bullet does (world.friction_as_bullet), flag; ours
     bullet_friction_member: bool = True
     # the score over members ("mean", "mean_std": mean + weight std, "cvar"), choice; ours
     risk: Literal["mean", "mean_std", "cvar"] = "mean"
     # lambda of the "mean_std" score, unitless; ours
-    risk_weight: float = 1.0
+    risk_weight: float = bounded(1.0, ge=0.0)
     # worst fraction of the members the "cvar" score averages, unitless; ours
-    cvar_fraction: float = 0.5
+    cvar_fraction: float = bounded(0.5, gt=0.0, le=1.0)

@@ -8,7 +8,8 @@ the dotted field path (``boxes[3].size``) and the reason. It never lets a ``KeyE
 
 Supported field types: ``bool``, ``int``, ``float`` (finite; ints accepted), ``str``,
 ``Literal[...]``, ``X | None``, fixed-length ``tuple[T, T, T]``, variable ``tuple[T, ...]``,
-``dict[str, scalar]``, and nested dataclasses.
+``dict[str, scalar]``, and nested dataclasses. A field's declared range (`accepts.bounded`)
+and its dataclass's ``relations`` are checked as each dataclass is built.
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args, get_origin, get_type_hints
 
 import yaml
+
+from drake_clutter.common.accepts import violations
 
 T = TypeVar("T")
 
@@ -149,7 +152,10 @@ class _Converter:
                 kwargs[name] = self.convert(hints[name], value[name], _join(field, name))
             elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
                 self.fail(_join(field, name), "missing required field")
-        return cls(**kwargs)
+        obj = cls(**kwargs)
+        for name, reason in violations(obj)[:1]:
+            self.fail(_join(field, name), reason)
+        return obj
 
 
 def from_data(cls: type[T], data: Any, *, file: str | Path, error_cls=InputError,

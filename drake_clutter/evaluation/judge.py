@@ -57,7 +57,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from drake_clutter.common.config import EvaluationConfig
+from drake_clutter.common.config import EvaluationConfig, check_config
 from drake_clutter.evaluation.lift_check import lift_check
 from drake_clutter.evaluation.outcome import (
     BoxOutcome,
@@ -69,7 +69,7 @@ from drake_clutter.evaluation.outcome import (
     scene_score,
 )
 from drake_clutter.evaluation.recording import Recorder
-from drake_clutter.evaluation.robust import check_robust, perturbed_scene, summarise
+from drake_clutter.evaluation.robust import perturbed_scene, summarise
 from drake_clutter.robot import pr2
 from drake_clutter.scene.grading import (
     off_the_board,
@@ -301,12 +301,12 @@ def evaluate(scene: Scene, trajectory: Trajectory, config: EvaluationConfig | No
 
     Deterministic: the same scene, trajectory and configuration give the same Outcome (but for
     ``wall_time``). Raises ValueError for a trajectory over other joints than TRAJECTORY_JOINTS
-    and ConfigError for a robust setting that makes no sense (`robust.check_robust`).
+    and ConfigError for a setting outside its declared range (`config.check_config`).
     """
     config = config or EvaluationConfig()
     changes = {"robust_replays": robust, "robust_seed": seed}
     config = replace(config, **{k: v for k, v in changes.items() if v is not None})
-    check_robust(config)
+    check_config(config, section="evaluation")
     started = time.perf_counter()
     nominal = _replay_once(scene, trajectory, config, lift, record_fps)
     if config.robust_replays == 1:

@@ -15,11 +15,10 @@ grades and what they give: P(success), P(success or partial success), the expect
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from drake_clutter.common.config import ConfigError, EvaluationConfig
+from drake_clutter.common.config import EvaluationConfig
 from drake_clutter.scene.perturbation import BoxPerturbation, perturb_boxes
 from drake_clutter.scene.scenes import Scene
 
@@ -69,28 +68,6 @@ class RobustSummary:
         return RobustSummary(int(data["seed"]), kinds, grades)
 
 
-def check_robust(config: EvaluationConfig, file: str = "<configuration>") -> None:
-    """Raises ConfigError naming the first ``evaluation.robust_*`` setting that makes no
-    sense."""
-    if isinstance(config.robust_seed, bool) or not isinstance(config.robust_seed, int):
-        raise ConfigError(file, "evaluation.robust_seed",
-                          f"must be an integer, got {config.robust_seed!r}")
-    if config.robust_seed < 0:
-        raise ConfigError(file, "evaluation.robust_seed",
-                          f"must be non-negative, got {config.robust_seed}")
-    if config.robust_replays < 1:
-        raise ConfigError(file, "evaluation.robust_replays",
-                          f"must be at least 1, got {config.robust_replays}")
-    for name in ("robust_position", "robust_yaw", "robust_mass", "robust_friction"):
-        value = getattr(config, name)
-        if not (value >= 0 and math.isfinite(value)):
-            raise ConfigError(file, f"evaluation.{name}",
-                              f"must be a non-negative half-range, got {value}")
-    for name in ("robust_mass", "robust_friction"):
-        if getattr(config, name) >= 1:
-            raise ConfigError(file, f"evaluation.{name}", "must be below 1 (a relative "
-                              f"change that keeps the value positive), got "
-                              f"{getattr(config, name)}")
 
 
 def perturbed_scene(scene: Scene, config: EvaluationConfig, replay: int) -> Scene:

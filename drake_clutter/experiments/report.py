@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_clutter.common.config import BaselineConfig, ConfigError, ReportConfig
+from drake_clutter.common.config import BaselineConfig, ReportConfig
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS, scene_score
 from drake_clutter.experiments.candidates import (
     candidate_ceiling,
@@ -94,20 +94,6 @@ PAPER_FIG9_NOTE = ("The paper gives Fig. 9's curves as plots only; its text: at 
 PHYSICS_STAGES = ("pre", "search", "sphere", "full", "post", "select")
 
 
-def check_report_config(config: ReportConfig, file: str = "<configuration>") -> None:
-    """Raises ConfigError naming the first ``report.*`` setting that makes no sense."""
-    if config.bootstrap_resamples < 1:
-        raise ConfigError(file, "report.bootstrap_resamples",
-                          f"must be at least 1, got {config.bootstrap_resamples}")
-    if config.bootstrap_seed < 0:
-        raise ConfigError(file, "report.bootstrap_seed",
-                          f"must be non-negative, got {config.bootstrap_seed}")
-    if not 0.0 < config.confidence < 1.0:
-        raise ConfigError(file, "report.confidence",
-                          f"must lie strictly between 0 and 1, got {config.confidence}")
-    if config.contribution_scenes < 1:
-        raise ConfigError(file, "report.contribution_scenes",
-                          f"must be at least 1, got {config.contribution_scenes}")
 
 
 def scene_scores(rows: list[dict]) -> dict[str, tuple[str, int, str]]:

@@ -37,7 +37,6 @@ from typing import Literal
 
 from drake_clutter.common.config import Config, config_to_data, load_config
 from drake_clutter.common.typed_yaml import InputError, from_data, read_yaml_file
-from drake_clutter.evaluation.robust import check_robust
 from drake_clutter.planners.registry import (
     PlannerName,
     check_planners,
@@ -189,7 +188,6 @@ def resolve_config(spec: ExperimentSpec, name: str, file="<spec>") -> Config:
         where = f"configurations.{name}"
         config = load_config(None, list(spec.overrides) + list(spec.configurations[name]))
         check_planners(config, planner_names())
-        check_robust(config.evaluation)
     except InputError as exc:
         raise SpecError(file, f"{where} ({exc.field})", exc.reason) from None
     return config

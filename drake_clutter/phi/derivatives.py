@@ -44,7 +44,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig
+from drake_clutter.common.config import Config, DynamicsConfig, WorldConfig, check_config
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import (
     colour_groups,
@@ -112,21 +112,6 @@ def derivative_spec(spec: PhiSpec) -> PhiSpec:
     return replace(spec, world=replace(spec.world, contact_approximation=approximation))
 
 
-def check_derivative_method(config: DynamicsConfig, world: WorldConfig) -> None:
-    """Raises ConfigError unless ``config.derivative_method`` can differentiate phi under the
-    approximation it is linearised with (`linearized_approximation`): AutoDiffXd ("autodiff",
-    "hybrid") only under "sap"; and unless ``quiet_speed`` is non-negative."""
-    if config.quiet_speed < 0:
-        raise ConfigError("<configuration>", "dynamics.quiet_speed",
-                          f"must be non-negative, got {config.quiet_speed!r}")
-    approximation = linearized_approximation(config, world)
-    if config.derivative_method != "fd" and approximation != "sap":
-        raise ConfigError(
-            "<configuration>", "dynamics.derivative_method",
-            f"must be 'fd' with world.contact_approximation {world.contact_approximation!r} "
-            f"unless dynamics.linearize_approximation is 'sap' (Drake's AutoDiffXd "
-            f"derivatives under Hunt-Crossley contact did not match "
-            f"themselves or finite differences), got {config.derivative_method!r}")
 
 
 class PhiDynamics:
@@ -140,7 +125,7 @@ class PhiDynamics:
     """
 
     def __init__(self, spec: PhiSpec, pool: WorkerPool | None = None):
-        check_derivative_method(spec.config, spec.world)
+        check_config(Config(world=spec.world, dynamics=spec.config))
         self.spec = spec
         self.config = spec.config
         self.layout = spec.layout

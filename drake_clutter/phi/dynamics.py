@@ -39,7 +39,7 @@ from functools import cached_property
 import numpy as np
 from pydrake.math import RigidTransform
 
-from drake_clutter.common.config import ConfigError, DynamicsConfig, WorldConfig
+from drake_clutter.common.config import DynamicsConfig, WorldConfig, check_config
 from drake_clutter.phi.jam import ACTOR, JamReader
 from drake_clutter.phi.state import (
     ARM_DIM,
@@ -133,36 +133,6 @@ def make_spec(scene: Scene, dynamic_boxes, box_states: dict[str, np.ndarray] | N
                    world or WorldConfig(), variant, tuple(arm_passes))
 
 
-def check_config(config: DynamicsConfig) -> None:
-    """Raises ConfigError (naming the field) for DynamicsConfig values phi cannot use."""
-    problems = [
-        ("fd_step", config.fd_step > 0, "must be positive"),
-        ("substeps", config.substeps >= 1, "must be at least 1"),
-        ("workers", config.workers >= 0, "must be 0 (serial) or more"),
-        ("derivative_stride", config.derivative_stride >= 1, "must be at least 1"),
-        ("autodiff_min_groups", config.autodiff_min_groups >= 1, "must be at least 1"),
-        ("derivative_method", not (config.derivative_method == "autodiff"
-                                   and config.contact_model == "point"),
-         "cannot be 'autodiff' with contact_model 'point' (no AutoDiffXd Box-Box queries)"),
-        ("corner_sphere_radius", config.corner_sphere_radius > 0, "must be positive"),
-        ("edge_sphere_radius", config.edge_sphere_radius > 0, "must be positive"),
-        ("edge_sphere_spacing", config.edge_sphere_spacing >= 0, "must be >= 0"),
-        ("interaction_margin", config.interaction_margin > 0, "must be positive"),
-        ("known_block_tolerance", config.known_block_tolerance >= 0, "must be >= 0"),
-        ("prune_margin", config.prune_margin >= 0, "must be >= 0"),
-        ("prune_contact_range", config.prune_contact_range >= 0, "must be >= 0"),
-        ("prune_samples_per_knot", config.prune_samples_per_knot >= 1, "must be at least 1"),
-        ("settle_time", config.settle_time >= 0, "must be >= 0"),
-        ("step_cache_size", config.step_cache_size >= 1, "must be at least 1"),
-        ("shelf_force_allowance", config.shelf_force_allowance >= 0, "must be >= 0"),
-        ("max_box_speed", config.max_box_speed > 0, "must be positive"),
-        ("max_box_spin", config.max_box_spin > 0, "must be positive"),
-        ("divergence_limit", config.divergence_limit > 0, "must be positive"),
-    ]
-    for name, ok, reason in problems:
-        if not ok:
-            raise ConfigError("<config>", f"dynamics.{name}",
-                              f"{reason}, got {getattr(config, name)!r}")
 
 
 def initial_state(layout: StateLayout, q_arm, box_states: dict[str, np.ndarray]) -> np.ndarray:
@@ -210,7 +180,7 @@ class Phi:
     """One phi world (plant + context built once) that steps knots and traces interactions."""
 
     def __init__(self, spec: PhiSpec):
-        check_config(spec.config)
+        check_config(spec.config, section="dynamics")
         self.spec = spec
         self.layout = spec.layout
         world_config = replace(spec.world, time_step=spec.sim_time_step)

@@ -31,7 +31,7 @@ from pydrake.math import BsplineBasis, KnotVectorType, RigidTransform
 from pydrake.multibody.inverse_kinematics import OrientationConstraint, PositionConstraint
 from pydrake.solvers import IpoptSolver, MathematicalProgram, SnoptSolver, SolverOptions
 
-from drake_clutter.common.config import BaselineConfig, ConfigError
+from drake_clutter.common.config import BaselineConfig, check_config
 from drake_clutter.planners.approach import (
     ARM_DOF,
     CONTINUOUS_JOINTS,
@@ -383,38 +383,8 @@ def prepare(scene: Scene, config: BaselineConfig) -> _Context:
                     PathOptimiser(world, clearance, config), gripper_extent(world))
 
 
-_CHECKS = (  # (field, test, what it must be) for check_config
-    ("num_angles", lambda c: c.num_angles >= 1, "at least 1"),
-    ("alpha_min", lambda c: c.alpha_min > -np.pi / 2, "above -pi/2"),
-    ("alpha_max", lambda c: c.alpha_min < c.alpha_max < np.pi / 2,
-     "above alpha_min and below pi/2"),
-    ("num_knots", lambda c: c.num_knots >= 2, "at least 2"),
-    ("knot_time", lambda c: c.knot_time > 0, "positive"),
-    ("d_safe", lambda c: c.d_safe >= 0, "non-negative"),
-    ("check_substeps", lambda c: c.check_substeps >= 1, "at least 1"),
-    ("check_tolerance", lambda c: c.check_tolerance >= 0, "non-negative"),
-    ("grasp_height_fraction", lambda c: c.grasp_height_fraction > 0, "positive"),
-    ("ik_influence_distance", lambda c: c.ik_influence_distance > c.ik_min_distance,
-     "greater than ik_min_distance"),
-    ("ik_nominal_postures", lambda c: all(len(p) == ARM_DOF for p in c.ik_nominal_postures),
-     f"a list of {ARM_DOF}-angle postures"),
-    ("ik_random_seeds", lambda c: c.ik_random_seeds >= 0, "non-negative"),
-    ("opt_substeps", lambda c: c.opt_substeps >= 1, "at least 1"),
-    ("opt_refine_substeps", lambda c: c.opt_refine_substeps >= 0, "non-negative"),
-    ("opt_spline_order", lambda c: c.opt_spline_order >= 2, "at least 2"),
-    ("opt_control_points", lambda c: c.opt_spline_order <= c.opt_control_points
-     <= c.num_knots, "between opt_spline_order and num_knots"),
-    ("opt_max_iterations", lambda c: c.opt_max_iterations >= 1, "at least 1"),
-    ("velocity_limit_scale", lambda c: c.velocity_limit_scale > 0, "positive"),
-)
 
 
-def check_config(config: BaselineConfig, file: str = "<configuration>") -> None:
-    """Raises ConfigError naming the first ``baseline.*`` field that makes no sense."""
-    for name, test, what in _CHECKS:
-        if not test(config):
-            raise ConfigError(file, f"baseline.{name}",
-                              f"must be {what}, got {getattr(config, name)!r}")
 
 
 def plan_baseline(scene: Scene, config: BaselineConfig | None = None,
@@ -425,7 +395,7 @@ def plan_baseline(scene: Scene, config: BaselineConfig | None = None,
     (a nonsensical configuration raises ConfigError).
     """
     config = config or BaselineConfig()
-    check_config(config)
+    check_config(config, section="baseline")
     alphas = approach_angles(config) if alphas is None else np.asarray(alphas, dtype=float)
     ctx = prepare(scene, config)
     return [plan_angle(ctx, float(alpha), i) for i, alpha in enumerate(alphas)]

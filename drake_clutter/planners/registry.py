@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from typing import Literal, Protocol
 
-from drake_clutter.common.config import Config
+from drake_clutter.common.config import Config, check_config
 from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate
@@ -54,10 +54,8 @@ class BaselinePlanner:
     starts_from = None
 
     def check(self, config: Config, file: str = "<configuration>") -> None:
-        """`baseline.check_config` on ``config.baseline``."""
-        from drake_clutter.planners.baseline import check_config
-
-        check_config(config.baseline, file)
+        """`config.check_config` (the baseline reads only ``config.baseline``)."""
+        check_config(config, file)
 
     def plan(self, scene: Scene, config: Config, angles: Sequence[int] | None = None,
              start: list[Candidate] | None = None) -> list[Candidate]:
@@ -67,7 +65,7 @@ class BaselinePlanner:
 
         if angles is None:
             return baseline.plan_baseline(scene, config.baseline)
-        baseline.check_config(config.baseline)
+        check_config(config.baseline, section="baseline")
         alphas = approach_angles(config.baseline)
         return [baseline.plan_angle(baseline.prepare(scene, config.baseline),
                                     float(alphas[index]), index) for index in angles]
@@ -86,10 +84,8 @@ class PhysicsPlanner:
     starts_from = "baseline"
 
     def check(self, config: Config, file: str = "<configuration>") -> None:
-        """`physics.pipeline.check_config` on the whole configuration."""
-        from drake_clutter.planners.physics.pipeline import check_config
-
-        check_config(config)
+        """`config.check_config` on the whole configuration."""
+        check_config(config, file)
 
     def plan(self, scene: Scene, config: Config, angles: Sequence[int] | None = None,
              start: list[Candidate] | None = None) -> list[Candidate]:

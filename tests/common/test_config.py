@@ -138,7 +138,8 @@ def test_every_config_field_has_one_comment_line_above_it_and_no_history():
 
 def test_the_comment_rule_catches_a_trailing_comment_and_an_issue_number():
     source = _config_source()
-    trailing = source.replace("time_step: float = 0.01\n", "time_step: float = 0.01  # s\n", 1)
+    trailing = source.replace("time_step: float = bounded(0.01, gt=0.0)\n",
+                              "time_step: float = bounded(0.01, gt=0.0)  # s\n", 1)
     assert trailing != source
     assert any("own line" in p for p in _comment_rule_violations(trailing))
     cited = source.replace("# phi's SAP time step, s; ours", "# phi's SAP time step (issue #3)", 1)

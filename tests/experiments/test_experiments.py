@@ -109,7 +109,11 @@ def test_spec_units_and_hash(tmp_path):
     (TINY + "configurations: {a: [], b: [baseline.num_angles=14]}\n", "configurations.b",
      "the same settings as configuration 'a'"),
     (TINY + "configurations: {few: [physics.iterations=-1]}\n",
-     "configurations.few (physics.iterations)", "at least 0"),
+     "configurations.few (physics.iterations)", "non-negative"),
+    (TINY + "configurations: {few: [evaluation.max_tilt=-1]}\n",
+     "configurations.few (evaluation.max_tilt)", "in (0, 1.5708)"),
+    (TINY.replace("[dynamics.workers=0]", "[evaluation.sim_dt=-1]"),
+     "overrides (evaluation.sim_dt)", "in (0, 0.01]"),
     (TINY.replace("levels: [1]", "levels: [0]"), "generated[0].levels", "at least 1"),
     ("name: x\nplanners: [baseline]\n", "scene_set", "name some scenes"),
     (TINY + "ray_max_retries: -1\n", "ray_max_retries", "non-negative"),
@@ -120,6 +124,16 @@ def test_bad_spec_names_file_and_field(tmp_path, text, field, needle):
         load_spec(path)
     assert info.value.field == field and needle in info.value.reason
     assert str(path) in str(info.value)
+
+
+def test_a_spec_with_a_judge_setting_out_of_range_writes_nothing(tmp_path, capsys):
+    """A bad override is refused before any unit runs: no store is created."""
+    path = _write(tmp_path, TINY + "configurations: {bad: [evaluation.sim_dt=-1]}\n")
+    db = tmp_path / "r.db"
+    assert main(["experiment", "run", str(path), "--db", str(db)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "evaluation.sim_dt" in err
+    assert not db.exists()
 
 
 def test_bad_spec_on_the_command_line_is_one_line_and_exit_2(tmp_path, capsys):

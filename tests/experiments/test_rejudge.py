@@ -51,6 +51,6 @@ def test_rejudged_rows_keep_the_plans_and_gain_the_robust_judge(source, tmp_path
 
 def test_only_judge_settings_can_change(source, tmp_path):
     with pytest.raises(ConfigError) as err:
-        rejudge(str(source), str(tmp_path / "x.db"), ["physics.iterations=3"], progress=False)
+        rejudge(str(source), str(tmp_path / "x.db"), ["physics.iterations=40"], progress=False)
     assert err.value.field == "physics.iterations"
     assert not (tmp_path / "x.db").exists()

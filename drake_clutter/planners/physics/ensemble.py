@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from drake_clutter.common.config import Config, ConfigError, EnsembleConfig
+from drake_clutter.common.config import Config, EnsembleConfig
 from drake_clutter.phi.derivatives import arm_touches_box
 from drake_clutter.planners.physics.stage import HoldTail, StageProblem, stage_problem
 from drake_clutter.scene.perturbation import BoxPerturbation, perturb_boxes
@@ -206,21 +206,3 @@ def ensemble_scores(scene: Scene, paths: dict[str, np.ndarray], config: Config, 
         scores, totals, _ = score_in_members(problems, paths, config)
     return scores, totals
 
-
-def check_ensemble(config: EnsembleConfig, file: str = "<configuration>") -> None:
-    """Raises ConfigError naming the first ``ensemble.*`` field that makes no sense."""
-    checks = (("members", config.members >= 1, "at least 1"),
-              ("seed", isinstance(config.seed, int) and not isinstance(config.seed, bool)
-               and config.seed >= 0, "a non-negative integer"),
-              ("position", np.isfinite(config.position) and config.position >= 0,
-               "a non-negative half-range"),
-              ("yaw", np.isfinite(config.yaw) and config.yaw >= 0, "a non-negative half-range"),
-              ("mass", 0 <= config.mass < 1, "in [0, 1) (a relative change)"),
-              ("friction", 0 <= config.friction < 1, "in [0, 1) (a relative change)"),
-              ("risk_weight", np.isfinite(config.risk_weight) and config.risk_weight >= 0,
-               "non-negative"),
-              ("cvar_fraction", 0 < config.cvar_fraction <= 1, "in (0, 1]"))
-    for name, ok, what in checks:
-        if not ok:
-            raise ConfigError(file, f"ensemble.{name}",
-                              f"must be {what}, got {getattr(config, name)!r}")

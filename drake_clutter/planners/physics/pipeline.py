@@ -70,16 +70,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from drake_clutter.common.config import Config, ConfigError
-from drake_clutter.phi.derivatives import check_derivative_method
+from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.state import ARM_DIM
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline, spline_basis
-from drake_clutter.planners.physics.ensemble import check_ensemble, ensemble_scores
+from drake_clutter.planners.physics.ensemble import ensemble_scores
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.grasp_height import box_depths, choose_height
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
-from drake_clutter.planners.physics.sampling import check_search, sampling_search
+from drake_clutter.planners.physics.sampling import sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
 from drake_clutter.planners.selection import selection_score
 from drake_clutter.robot import pr2
@@ -464,67 +463,6 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
                      timings=timings, details=details)
 
 
-def check_config(config: Config) -> None:
-    """Raises ConfigError naming the first ``physics.*`` field that makes no sense."""
-    cfg = config.physics
-    checks = (("iterations", cfg.iterations >= 0, "at least 0"),
-              ("sphere_iterations", cfg.sphere_iterations >= 0, "at least 0"),
-              ("pre_iterations", cfg.pre_iterations >= 0, "at least 0"),
-              ("post_iterations", cfg.post_iterations >= 0, "at least 0"),
-              ("grasp_heights", all(0 < f <= 1 for f in cfg.grasp_heights),
-               "fractions of the target's height in (0, 1]"),
-              ("approach_offsets", all(abs(o) <= 0.5 for o in cfg.approach_offsets),
-               "yaw offsets (rad) within [-0.5, 0.5]"),
-              ("press_tolerance", cfg.press_tolerance >= 0, "non-negative"),
-              ("side_tolerance", cfg.side_tolerance >= 0, "non-negative"),
-              ("press_substeps", cfg.press_substeps >= 1, "at least 1"),
-              ("hull_substeps", cfg.hull_substeps >= 1, "at least 1"),
-              ("post_substeps", cfg.post_substeps >= 1, "at least 1"),
-              ("sweep_spacing", cfg.sweep_spacing >= 0.0, "non-negative (0 = off)"),
-              ("force_stiffness", cfg.force_stiffness > 0, "positive"),
-              ("hold_knots", cfg.hold_knots >= 0, "at least 0"),
-              ("hold_derivative_stride",
-               cfg.hold_derivative_stride is None or cfg.hold_derivative_stride >= 1,
-               "at least 1, or null for dynamics.derivative_stride"),
-              ("w_settled_upright", cfg.w_settled_upright >= 0, "non-negative (0 = off)"),
-              ("w_settled_fall", cfg.w_settled_fall >= 0, "non-negative (0 = off)"),
-              ("settled_fall_scale", cfg.settled_fall_scale > 0, "positive"),
-              ("w_static_deep", cfg.w_static_deep >= 0, "non-negative"),
-              ("static_depth", cfg.static_depth >= 0, "non-negative"),
-              ("phi_static_substeps", cfg.phi_static_substeps >= 1, "at least 1"),
-              ("w_static_deep", cfg.w_static_deep == 0 or cfg.w_static > 0,
-               "0 while physics.w_static is 0 (it scales the steep part)"),
-              ("w_force_excess", cfg.w_force_excess >= 0, "non-negative"),
-              ("force_limit", cfg.force_limit >= 0, "non-negative"),
-              ("w_speed", cfg.w_speed >= 0, "non-negative"),
-              ("approach_knots", cfg.approach_knots >= 0, "at least 0"),
-              ("min_step", cfg.min_step >= 0, "non-negative (0 = off)"),
-              ("step_smoothing", cfg.step_smoothing >= 0, "non-negative (0 = off)"),
-              ("w_approach", cfg.w_approach >= 0, "non-negative"),
-              ("w_approach_axis", cfg.w_approach_axis >= 0, "non-negative"),
-              ("speed_fraction", cfg.speed_fraction > 0, "positive"),
-              ("tolerance", cfg.tolerance >= 0, "non-negative"),
-              ("stall_fraction", 0 <= cfg.stall_fraction < 1, "in [0, 1) (0 = off)"),
-              ("stall_iterations", cfg.stall_iterations >= 1, "at least 1"),
-              ("line_search_steps", cfg.line_search_steps >= 1, "at least 1"),
-              ("max_failed_searches", cfg.max_failed_searches >= 1, "at least 1"),
-              ("pre_w_vel", cfg.pre_w_vel is None or cfg.pre_w_vel >= 0,
-               "non-negative (or null: the baseline's w_vel)"),
-              ("step_limit_fraction", cfg.step_limit_fraction > 0, "positive"),
-              ("accept_ratio", 0 <= cfg.accept_ratio < 1, "in [0, 1)"),
-              ("max_spectral_radius", cfg.max_spectral_radius > 0, "positive"),
-              ("control_points",
-               config.baseline.opt_spline_order <= cfg.control_points <= config.baseline.num_knots,
-               f"between baseline.opt_spline_order ({config.baseline.opt_spline_order}) and "
-               f"baseline.num_knots ({config.baseline.num_knots})"),
-              ("post_variant", cfg.post_variant in pr2.VARIANTS,
-               f"one of {', '.join(pr2.VARIANTS)}"), *check_search(config))
-    for name, ok, what in checks:
-        if not ok:
-            raise ConfigError("<configuration>", f"physics.{name}",
-                              f"must be {what}, got {getattr(cfg, name)!r}")
-    check_derivative_method(config.dynamics, config.world)
-    check_ensemble(config.ensemble)
 
 
 def plan_physics(scene: Scene, config: Config | None = None,

@@ -49,7 +49,6 @@ from drake_clutter.planners.physics.ensemble import (
     score_in_members,
 )
 from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene
 
 ARM = 7  # arm joints; column 7 of a path is the gripper opening (m)
@@ -242,18 +241,3 @@ def _search_rounds(scene: Scene, starts: dict[str, np.ndarray], config: Config,
     return SearchResult(best_q, min(final["best"], final["centre"]), final["centre"], rounds,
                         best, begin, start)
 
-
-def check_search(config: Config) -> list[tuple[str, bool, str]]:
-    """(field, ok, what it must be) of the ``physics.search*`` fields."""
-    cfg = config.physics
-    return [("search_rounds", cfg.search_rounds >= 1, "at least 1"),
-            ("search_samples", cfg.search_samples >= 1, "at least 1"),
-            ("search_elite", 0 < cfg.search_elite <= 1, "in (0, 1]"),
-            ("search_lateral", cfg.search_lateral >= 0, "non-negative"),
-            ("search_height", cfg.search_height >= 0, "non-negative"),
-            ("search_yaw", cfg.search_yaw >= 0, "non-negative"),
-            ("search_opening", 0 <= cfg.search_opening <= pr2.GRIPPER_MAX_OPENING,
-             f"in [0, {pr2.GRIPPER_MAX_OPENING}] m"),
-            ("search_lead_knots", cfg.search_lead_knots >= 0, "non-negative"),
-            ("search_prune_margin", cfg.search_prune_margin >= 0, "non-negative"),
-            ("search_rebuilds", cfg.search_rebuilds >= 0, "non-negative")]

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drake_clutter.common.config import Config, ConfigError, load_config
+from drake_clutter.common.config import Config, ConfigError, check_config, load_config
 from drake_clutter.planners.physics import grasp_height, pipeline
 from drake_clutter.planners.physics.ensemble import MemberRollout
 from drake_clutter.planners.physics.geometry import ArmGeometry
@@ -103,7 +103,7 @@ def fig5_heights(scene):
     from drake_clutter.planners.baseline import plan_baseline
 
     config = load_config(None, ["physics.grasp_heights=[0.9]", "physics.height_choice=phi",
-                                "physics.iterations=0",
+                                "physics.iterations=0", "physics.sphere_iterations=0",
                                 "physics.pre_iterations=0", "physics.post_iterations=0",
                                 "dynamics.workers=0"])
     (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
@@ -211,7 +211,7 @@ def test_grasp_heights_must_be_fractions_of_the_target(fractions):
     config = Config()
     config = replace(config, physics=replace(config.physics, grasp_heights=tuple(fractions)))
     with pytest.raises(ConfigError, match="physics.grasp_heights"):
-        pipeline.check_config(config)
+        check_config(config)
 
 
 @pytest.mark.parametrize("field, value", [("press_tolerance", -0.001), ("press_substeps", 0),
@@ -221,4 +221,4 @@ def test_the_press_checks_settings_are_checked(field, value):
     config = Config()
     config = replace(config, physics=replace(config.physics, **{field: value}))
     with pytest.raises(ConfigError, match=f"physics.{field}"):
-        pipeline.check_config(config)
+        check_config(config)

@@ -1013,7 +1013,8 @@ def test_plan_command_writes_both_planners(tmp_path, capsys):
 
     out = tmp_path / "plan.json"
     code = main(["plan", "fig5_large_small", "--planner", "both", "--angles", "1", "--out",
-                 str(out), "--set", "physics.iterations=0", "--set", "physics.pre_iterations=1",
+                 str(out), "--set", "physics.iterations=0", "--set", "physics.sphere_iterations=0",
+                 "--set", "physics.pre_iterations=1",
                  "--set", "physics.post_iterations=1"])
     assert code == 0
     _, candidates, doc = load_plan(out)

@@ -121,16 +121,6 @@ def test_the_offsets_begin_before_the_first_contact_and_spare_the_knots_before(
     assert ref.begin == 0 and ref.score <= ref.start_score
 
 
-@pytest.mark.parametrize("field, value", [
-    ("search_rounds", "0"), ("search_samples", "0"), ("search_elite", "0"),
-    ("search_lateral", "-0.01"), ("search_opening", "0.2"), ("search_lead_knots", "-1"),
-    ("search_prune_margin", "-0.01"),
-])
-def test_bad_search_settings_are_config_errors(field, value):
-    with pytest.raises(ConfigError, match=f"physics.{field}"):
-        pipeline.check_config(load_config(None, [f"physics.{field}={value}"]))
-
-
 def test_an_unknown_search_is_a_config_error():
     with pytest.raises(ConfigError, match="physics.search"):
         load_config(None, ["physics.search=beam"])
@@ -146,6 +136,7 @@ def test_the_pipeline_searches_and_offers_the_found_path_to_the_selection(scene)
 
     config = load_config(None, ["physics.search=sampling", "physics.search_rounds=1",
                                 "physics.search_samples=2", "physics.iterations=0",
+                                "physics.sphere_iterations=0",
                                 "physics.pre_iterations=2", "physics.post_iterations=2"])
     candidates = plan_baseline(scene, config.baseline, alphas=[0.3])
     (plan,) = plan_physics(scene, config, candidates)

@@ -179,8 +179,8 @@ def check_spec(spec: ExperimentSpec, file) -> None:
 
 def resolve_config(spec: ExperimentSpec, name: str, file="<spec>") -> Config:
     """The project Config of configuration ``name``: defaults, the spec's common overrides,
-    then the configuration's own. A bad override or a setting the planners reject
-    (`Planner.check`) or the robust judge rejects (`robust.check_robust`) raises SpecError
+    then the configuration's own. A bad override, a value outside its field's declared range
+    (checked on loading) or a setting the planners reject (`Planner.check`) raises SpecError
     naming the field."""
     where = "overrides"
     try:

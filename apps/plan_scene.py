@@ -26,8 +26,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import multiprocessing
+import os
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -55,12 +58,44 @@ def with_iterations(config, iterations: int):
     return dataclasses.replace(config, physics=physics)
 
 
-def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS) -> dict:
-    """{planner: (candidates, Bullet outcomes with recordings)} for ``angles`` approach angles,
-    in the order shown (the registry's order reversed: physics first, on the right)."""
+def _plan_angle(scene, config, names: tuple, index: int, angles: int) -> dict:
+    """{planner: ([candidate], [Bullet outcome with recording])} of approach angle ``index``
+    of ``angles``, planned alone (as an experiment's work unit plans it)."""
     from drake_clutter.evaluation.judge import evaluate_candidates
 
-    names = planner_names()[::-1] if planner == ALL_PLANNERS else (planner,)
+    plans = run_planners(scene, config, names, angles=[index], num_angles=angles)
+    return {name: (candidates, evaluate_candidates(scene, candidates, config.evaluation,
+                                                   record_fps=config.viz.fps))
+            for name, candidates in plans.items()}
+
+
+def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS,
+                      jobs: int = 1) -> dict:
+    """{planner: (candidates, Bullet outcomes with recordings)} for ``angles`` approach angles,
+    in the order shown (the registry's order reversed: physics first, on the right). With
+    ``jobs`` > 1 the angles are planned in that many processes, each angle alone and phi's
+    derivatives serial within it (``dynamics.workers`` 0: the same plans, the line search
+    accepts the step a batched one would)."""
+    names = tuple(planner_names()[::-1] if planner == ALL_PLANNERS else (planner,))
+    if jobs <= 1 or angles <= 1:
+        parts = [_plan_angle_all(scene, config, names, angles)]
+    else:
+        serial = dataclasses.replace(
+            config, dynamics=dataclasses.replace(config.dynamics, workers=0))
+        with ProcessPoolExecutor(min(jobs, angles),
+                                 mp_context=multiprocessing.get_context("spawn")) as pool:
+            parts = list(pool.map(_plan_angle, *zip(*[(scene, serial, names, i, angles)
+                                                      for i in range(angles)],
+                                                    strict=True)))
+    return {name: ([c for part in parts for c in part[name][0]],
+                   [o for part in parts for o in part[name][1]]) for name in names}
+
+
+def _plan_angle_all(scene, config, names: tuple, angles: int) -> dict:
+    """`_plan_angle` for every angle in a row, in one process (the baseline seeds each
+    angle's IK with its neighbour's solution)."""
+    from drake_clutter.evaluation.judge import evaluate_candidates
+
     plans = run_planners(scene, config, names, num_angles=angles)
     return {name: (candidates, evaluate_candidates(scene, candidates, config.evaluation,
                                                    record_fps=config.viz.fps))
@@ -195,6 +230,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--iterations", type=int, default=4,
                         help="physics iLQR iterations per candidate (default 4, a quick demo; "
                         "the paper's 30: --iterations 30); the sphere-proxy share scales along")
+    parser.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1),
+                        help="processes planning the angles side by side, each angle alone "
+                        "(default: 2, or 1 on one core; 1: every angle in a row, the baseline "
+                        "seeding each angle's IK with its neighbour's solution)")
     parser.add_argument("--config", help="YAML configuration overrides")
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="KEY=VALUE")
@@ -204,6 +243,8 @@ def _parser() -> argparse.ArgumentParser:
 def _check(args) -> None:
     if args.angles < 1:
         raise InputError("<command line>", "--angles", f"must be at least 1, got {args.angles}")
+    if args.jobs < 1:
+        raise InputError("<command line>", "--jobs", f"must be at least 1, got {args.jobs}")
     if args.iterations < 0:
         raise InputError("<command line>", "--iterations",
                          f"must be at least 0, got {args.iterations}")
@@ -221,7 +262,7 @@ def main(argv=None) -> int:
         _check(args)
         config = with_iterations(load_config(args.config, args.overrides), args.iterations)
         scene = resolve_scene(args.scene)
-        plans = plan_and_evaluate(scene, config, args.angles, args.planner)
+        plans = plan_and_evaluate(scene, config, args.angles, args.planner, args.jobs)
         selected = selections(plans, config)
         print(outcome_table(plans, selected))
         costs = args.costs or (str(Path(args.html).parent) if args.html else None)

@@ -253,15 +253,19 @@ def _sphere_offsets(box: BoxObject, point: PointContactBoxes) -> np.ndarray:
 
 
 def _register_box_geometry(plant: MultibodyPlant, body, box: BoxObject, config: WorldConfig,
-                           compliant: bool, point: PointContactBoxes | None) -> dict:
-    """Collision geometry of one box; returns the ids as {"box": [...], "spheres": [...]}."""
+                           compliant: bool, point: PointContactBoxes | None,
+                           welded: bool = False) -> dict:
+    """Collision geometry of one box; returns the ids as {"box": [...], "spheres": [...]}.
+    A ``welded`` box gets no support spheres: they would meet only the shelf, which is welded
+    to W as the box is, so Drake never pairs them (a box of only spheres keeps them)."""
     ids = {"box": [], "spheres": []}
-    if point is None or point.box_shape or point.compliant_box:
+    shape = point is None or point.box_shape or point.compliant_box
+    if shape:
         hydroelastic = compliant and (point is None or point.compliant_box)
         ids["box"].append(plant.RegisterCollisionGeometry(
             body, RigidTransform(), Box(*box.size), f"{box.name}_collision",
             _box_proximity(box, config, hydroelastic)))
-    if point is not None:
+    if point is not None and not (welded and shape):
         for i, p_BS in enumerate(_sphere_offsets(box, point)):
             ids["spheres"].append(plant.RegisterCollisionGeometry(
                 body, RigidTransform(p_BS), Sphere(point.sphere_radius),
@@ -278,8 +282,9 @@ def _add_boxes(builder: RobotDiagramBuilder, scene: Scene, config: WorldConfig,
     for box in scene.boxes:
         inertia = SpatialInertia.SolidBoxWithMass(box.mass, *box.size)
         body = plant.AddRigidBody(box.name, instance, inertia)
+        welded = frozen is not None and box.name in frozen
         for kind, new in _register_box_geometry(plant, body, box, config, compliant,
-                                                point).items():
+                                                point, welded).items():
             ids[kind] += new
         plant.RegisterVisualGeometry(body, RigidTransform(), Box(*box.size),
                                      f"{box.name}_visual", np.asarray(box.color))

@@ -9,10 +9,8 @@ downloaded at run time. Without it the tests fail under CI (``CI=true``) and ski
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
-import tempfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -27,37 +25,28 @@ from drake_clutter.evaluation.judge import evaluate
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.scene.scenes import DEFAULT_SCENE, load_shipped_scene
 from drake_clutter.viz.replay import PlanView, look_at_copies, record_replay
+from drake_clutter.viz.screenshot import ChromiumMissing, chromium_path
+from drake_clutter.viz.screenshot import screenshot as render
 from drake_clutter.viz.views import write_static_html
 
 REPO = Path(__file__).resolve().parents[2]
 WINDOW = (800, 600)  # px; software WebGL: rendering cost grows with the area
-BUDGET_MS = 2000  # virtual time for loading and drawing the page (measured: enough)
 MIN_SHARE = 0.002  # of the window's pixels per part (about 1000 pixels): a part in view
 
 
 def _chromium() -> str:
-    path = shutil.which("chromium")
-    if path is None:
-        message = "Debian's chromium is not installed (apt-get install chromium)"
+    try:
+        return chromium_path()
+    except ChromiumMissing as exc:
         if os.environ.get("CI") == "true":
-            pytest.fail(message + "; .ci/run installs it")
-        pytest.skip(message)
-    return path
+            pytest.fail(f"{exc}; .ci/run installs it")
+        pytest.skip(str(exc))
 
 
 def screenshot(html: Path, png: Path) -> np.ndarray:
     """RGB image (H, W, 3) in [0, 1] of ``html`` rendered by headless Chromium."""
-    with tempfile.TemporaryDirectory() as profile:
-        result = subprocess.run(
-            [_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-             "--no-first-run", "--disable-background-networking", "--disable-component-update",
-             "--disable-sync", f"--user-data-dir={profile}",
-             f"--window-size={WINDOW[0]},{WINDOW[1]}", f"--virtual-time-budget={BUDGET_MS}",
-             f"--screenshot={png}", html.resolve().as_uri()],
-            capture_output=True, text=True, timeout=180)
-    assert png.exists(), f"chromium wrote no screenshot (exit {result.returncode}):\n" \
-                         f"{result.stderr[-2000:]}"
-    return imread(png)[..., :3]
+    _chromium()
+    return imread(render(html, png, WINDOW))[..., :3]
 
 
 def drawn_parts(image: np.ndarray, blank: np.ndarray) -> dict[str, float]:
@@ -120,6 +109,21 @@ def test_exported_replay_shows_shelf_boxes_and_arm(replay_html):
         assert_scene_drawn(blank, blank)
     with pytest.raises(AssertionError, match="not drawn"):
         assert_scene_drawn(blank, image)  # the page without the scene, against the scene
+
+
+def test_the_screenshot_app_writes_the_readme_picture(replay_html, tmp_path):
+    """apps/screenshot.py, which makes docs/main_job.png, renders a replay page: the scene is
+    in the picture; a missing page or a bad size is one line and exit status 2."""
+    html, directory = replay_html
+    png = tmp_path / "shot.png"
+    run = [sys.executable, "apps/screenshot.py", str(html), str(png), "--size", "800x600"]
+    result = subprocess.run(run, cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert_scene_drawn(imread(png)[..., :3], _blank_page(directory, copies=1))
+    for bad in ([str(tmp_path / "none.html"), str(png)], [str(html), str(png), "--size", "8x"]):
+        result = subprocess.run([sys.executable, "apps/screenshot.py", *bad], cwd=REPO,
+                                capture_output=True, text=True, timeout=60)
+        assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1
 
 
 @pytest.mark.slow

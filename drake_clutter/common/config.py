@@ -139,7 +139,7 @@ class GeneratorConfig:
 class WorldConfig:
     """Drake worlds: the kinematic planning world and the smooth-contact dynamics phi (Sec. V)."""
 
-    # phi's SAP time step, s; ours
+    # SAP step of dynamics worlds built directly (phi steps knot_time / substeps), s; ours
     time_step: float = bounded(0.01, gt=0.0)
     # hydroelastic modulus of phi's compliant boxes, Pa; ours
     hydroelastic_modulus: float = bounded(5.0e5, gt=0.0)

@@ -142,6 +142,6 @@ def test_the_comment_rule_catches_a_trailing_comment_and_an_issue_number():
                               "time_step: float = bounded(0.01, gt=0.0)  # s\n", 1)
     assert trailing != source
     assert any("own line" in p for p in _comment_rule_violations(trailing))
-    cited = source.replace("# phi's SAP time step, s; ours", "# phi's SAP time step (issue #3)", 1)
+    cited = source.replace("(phi steps knot_time / substeps), s; ours", "(issue #3)", 1)
     assert cited != source
     assert any("issue" in p for p in _comment_rule_violations(cited))

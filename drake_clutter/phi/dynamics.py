@@ -13,9 +13,11 @@ knots); the boxes start at their state. After the last sub-step the arm's state 
 (kinematic): d x_arm' / dx = 0 and d x_arm' / du = I. Everything phi needs is in x and u, so
 phi is deterministic: the same (x, u) gives the same bits.
 
-Contact (``DynamicsConfig.contact_model``): by default the boxes are compliant hydroelastic
-bodies with a margin (``WorldConfig.hydroelastic_margin``) against the rigid hydroelastic arm and
-shelf, so pairs enter SAP's problem before they touch and phi is continuous in (x, u); with
+Contact (``DynamicsConfig.contact_model``): by default ("edges") the boxes are compliant
+hydroelastic bodies with a margin (``WorldConfig.hydroelastic_margin``) against the rigid
+hydroelastic arm and each other, standing on 1 mm spheres along their edges that alone meet the
+shelf ("hydroelastic": the Box itself meets the shelf too); pairs within the margin enter SAP's
+problem before they touch, so phi is continuous in (x, u) there; with
 point contact SAP sees a pair only once it penetrates, and a perturbation that decides whether
 it does at a sub-step's start changes the next velocity by a jump. Each step also yields the
 contact forces between bodies (`Phi.contact_forces`, averaged over the knot): Table I's

@@ -113,6 +113,16 @@ def test_plan_scene_app_writes_html_of_default_scene(tmp_path):
         assert f"/drake/illustration/boxes/{box.name}" in paths
 
 
+@pytest.mark.parametrize("args, field", [(["--jobs", "0"], "--jobs"),
+                                         (["--angles", "0"], "--angles"),
+                                         (["--set", "physics.iterations=-1"], "physics")])
+def test_plan_scene_app_bad_options_exit_2(args, field):
+    result = subprocess.run([sys.executable, "apps/plan_scene.py", *args, "--no-browser"],
+                            cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 2 and field in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+
+
 def test_plan_scene_app_bad_scene_exit_2():
     result = subprocess.run([sys.executable, "apps/plan_scene.py", "--scene", "missing.yaml"],
                             cwd=REPO, capture_output=True, text=True, timeout=300)

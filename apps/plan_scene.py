@@ -58,12 +58,14 @@ def with_iterations(config, iterations: int):
     return dataclasses.replace(config, physics=physics)
 
 
-def _plan_angle(scene, config, names: tuple, index: int, angles: int) -> dict:
-    """{planner: ([candidate], [Bullet outcome with recording])} of approach angle ``index``
-    of ``angles``, planned alone (as an experiment's work unit plans it)."""
+def _plan(scene, config, names: tuple, angles: int, index: int | None = None) -> dict:
+    """{planner: (candidates, Bullet outcomes with recordings)} of every one of ``angles``
+    approach angles in a row (the baseline seeding each angle's IK with its neighbour's
+    solution), or of angle ``index`` alone (as an experiment's work unit plans it)."""
     from drake_clutter.evaluation.judge import evaluate_candidates
 
-    plans = run_planners(scene, config, names, angles=[index], num_angles=angles)
+    plans = run_planners(scene, config, names, angles=None if index is None else [index],
+                         num_angles=angles)
     return {name: (candidates, evaluate_candidates(scene, candidates, config.evaluation,
                                                    record_fps=config.viz.fps))
             for name, candidates in plans.items()}
@@ -78,28 +80,15 @@ def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS,
     accepts the step a batched one would)."""
     names = tuple(planner_names()[::-1] if planner == ALL_PLANNERS else (planner,))
     if jobs <= 1 or angles <= 1:
-        parts = [_plan_angle_all(scene, config, names, angles)]
-    else:
-        serial = dataclasses.replace(
-            config, dynamics=dataclasses.replace(config.dynamics, workers=0))
-        with ProcessPoolExecutor(min(jobs, angles),
-                                 mp_context=multiprocessing.get_context("spawn")) as pool:
-            parts = list(pool.map(_plan_angle, *zip(*[(scene, serial, names, i, angles)
-                                                      for i in range(angles)],
-                                                    strict=True)))
+        return _plan(scene, config, names, angles)
+    serial = dataclasses.replace(
+        config, dynamics=dataclasses.replace(config.dynamics, workers=0))
+    with ProcessPoolExecutor(min(jobs, angles),
+                             mp_context=multiprocessing.get_context("spawn")) as pool:
+        parts = list(pool.map(_plan, *zip(*[(scene, serial, names, angles, i)
+                                            for i in range(angles)], strict=True)))
     return {name: ([c for part in parts for c in part[name][0]],
                    [o for part in parts for o in part[name][1]]) for name in names}
-
-
-def _plan_angle_all(scene, config, names: tuple, angles: int) -> dict:
-    """`_plan_angle` for every angle in a row, in one process (the baseline seeds each
-    angle's IK with its neighbour's solution)."""
-    from drake_clutter.evaluation.judge import evaluate_candidates
-
-    plans = run_planners(scene, config, names, num_angles=angles)
-    return {name: (candidates, evaluate_candidates(scene, candidates, config.evaluation,
-                                                   record_fps=config.viz.fps))
-            for name, candidates in plans.items()}
 
 
 def selections(plans: dict, config) -> dict[str, int | None]:

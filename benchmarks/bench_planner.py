@@ -14,7 +14,12 @@ same run is one phi step of the scene's first rollout (the kept boxes, ``dynamic
 SAP steps): the 'init/step' column is the initialization's time in phi steps, a
 machine-independent measure of the planner's work; 'its' the accepted iLQR iterations through
 phi and 'cost x' the phi stages' final objective over their initial one (a fast stage that makes
-no progress is no win). ``--set`` overrides any configuration field.
+no progress is no win); 'budget x' the initialization's time over ``physics.time_budget``
+(target: at most 1.1) and the stages it cut. ``--set`` overrides any configuration field;
+``--seeds`` plans other scenes of a level, e.g. dense refrigerators under a short budget:
+
+    python benchmarks/bench_planner.py --kind fridge --levels 20 --seeds 1 2 3 \
+        --set physics.time_budget=60
 """
 
 from __future__ import annotations
@@ -48,14 +53,28 @@ def phi_step_seconds(scene, candidate, config, repeats: int = 5) -> float:
     return (time.perf_counter() - tic) / repeats
 
 
-def first_scene(kind: str, level: int, config):
-    spec = next(s for s in scene_set("paper", config.generator)
-                if s.kind == kind and s.num_objects == level)
-    return generate_scene(kind, level, spec.seed, config.generator)
+def first_scene(kind: str, level: int, config, seed: int | None = None):
+    """The scene of ``seed``, else the 'paper' set's first at this level (seed 0 beyond it)."""
+    if seed is None:
+        spec = next((s for s in scene_set("paper", config.generator)
+                     if s.kind == kind and s.num_objects == level), None)
+        seed = 0 if spec is None else spec.seed
+    return generate_scene(kind, level, seed, config.generator)
 
 
-def bench(kind: str, level: int, config, angles: int, pool) -> str:
-    scene = first_scene(kind, level, config)
+def budget_column(plan, total: float, config) -> str:
+    """The initialization's time over ``physics.time_budget`` (the target: at most 1.1) and
+    the stages the budget cut short or left out."""
+    budget = config.physics.time_budget
+    if budget is None:
+        return f"{'-':>8}"
+    record = plan.details.get("time_budget", {})
+    cut = "+".join(record.get("stopped", []) + record.get("skipped", []))
+    return f"{total / budget:8.2f}" + (f" (cut: {cut})" if cut else "")
+
+
+def bench(kind: str, level: int, config, angles: int, pool, seed: int | None = None) -> str:
+    scene = first_scene(kind, level, config, seed)
     baseline = dataclasses.replace(config.baseline, num_angles=angles)
     usable = [c for c in plan_baseline(scene, baseline) if c.ok]
     if not usable:
@@ -75,8 +94,8 @@ def bench(kind: str, level: int, config, angles: int, pool) -> str:
              else float("nan"))
     return (f"{kind:9} {level:5d} {len(kept):5d} {total:8.1f} {t.get('pre', 0):6.1f} "
             f"{t.get('sphere', 0):7.1f} {t.get('full', 0):7.1f} {t.get('post', 0):6.1f} "
-            f"{reference * 1000:8.1f} {total / reference:9.0f} {iterations:4d} {ratio:7.3f}  "
-            f"{plan.status} {plan.reason}")
+            f"{reference * 1000:8.1f} {total / reference:9.0f} {iterations:4d} {ratio:7.3f} "
+            f"{budget_column(plan, total, config)}  {plan.status} {plan.reason}")
 
 
 def main() -> None:
@@ -85,6 +104,8 @@ def main() -> None:
     parser.add_argument("--levels", type=int, nargs="*", help="box counts (default: all)")
     parser.add_argument("--angles", type=int, default=3,
                         help="baseline angles tried for a usable initialization (default 3)")
+    parser.add_argument("--seeds", type=int, nargs="*",
+                        help="scene seeds per level (default: the 'paper' set's first)")
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="KEY=VALUE")
     args = parser.parse_args()
@@ -95,13 +116,14 @@ def main() -> None:
           f"{config.dynamics.workers}")
     print(f"{'kind':9} {'boxes':>5} {'kept':>5} {'init s':>8} {'pre s':>6} {'sphere s':>7} "
           f"{'full s':>7} {'post s':>6} {'step ms':>8} {'init/step':>9} {'its':>4} "
-          f"{'cost x':>7}  status")
+          f"{'cost x':>7} {'budget x':>8}  status")
     pool = WorkerPool(config.dynamics.workers) if config.dynamics.workers > 0 else None
     try:
         for kind in kinds:
             env = getattr(config.generator, kind)
             for level in args.levels or env.clutter_levels:
-                print(bench(kind, level, config, args.angles, pool), flush=True)
+                for seed in args.seeds or [None]:
+                    print(bench(kind, level, config, args.angles, pool, seed), flush=True)
     finally:
         if pool is not None:
             pool.close()

@@ -166,6 +166,8 @@ class PhysicsConfig:
     force_stiffness: float = bounded(1.0e3, gt=0.0)
     # configurations per knot interval in c_static_hull / c_dynamic, count; ours
     hull_substeps: int = bounded(2, ge=1)
+    # wall time of an initialization's stages (then the best path so far is the plan), s; ours
+    time_budget: float | None = bounded(600.0, gt=0.0)
     # iLQR iterations of the Sec. V-A pre-processing, count; ours
     pre_iterations: int = bounded(10, ge=0)
     # multiple of w_grasp and w_grp_horiz at the pre-processing's last knot, unitless; ours

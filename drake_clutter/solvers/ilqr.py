@@ -144,6 +144,13 @@ class ILQRSettings:
     # in a row each lowered the objective by less than this fraction of the decrease since
     # the start (the tail of a converging run buys little); 0: no such rule
     stall_iterations: int = 2
+    deadline: float | None = None  # a time.perf_counter() value (s) past which no iteration
+    # and no further line search starts ("time_budget"); the result is the best path so far
+
+
+def past(deadline: float | None) -> bool:
+    """True when ``deadline`` (a time.perf_counter() value, s) is set and has passed."""
+    return deadline is not None and time.perf_counter() >= deadline
 
 
 class StopReason(StrEnum):
@@ -155,6 +162,7 @@ class StopReason(StrEnum):
     STALLED = "stalled"  # stall_iterations steps in a row each bought < stall_fraction
     REGULARIZATION_LIMIT = "regularization_limit"  # mu passed reg_max without an accepted step
     LINE_SEARCH_FAILED = "line_search_failed"  # max_failed_searches line searches failed
+    TIME_BUDGET = "time_budget"  # settings.deadline passed (the best path so far is kept)
 
 
 @dataclass
@@ -389,6 +397,9 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     stop_reason = StopReason.MAX_ITERATIONS
     iteration, alpha0 = 0, 1.0
     while iteration < settings.max_iterations:
+        if past(settings.deadline):
+            stop_reason = StopReason.TIME_BUDGET
+            break
         iteration += 1
         tic = time.perf_counter()
         A, B = dynamics.linearize(xs, us)
@@ -398,8 +409,9 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
         timings["quadratize"] += time.perf_counter() - tic
         nonfinite = zero_nonfinite(A, B, *vars(exp).values())
         accepted, failed = False, 0
-        while mu <= settings.reg_max and (settings.max_failed_searches is None
-                                          or failed < settings.max_failed_searches):
+        while (mu <= settings.reg_max and not past(settings.deadline)
+               and (settings.max_failed_searches is None
+                    or failed < settings.max_failed_searches)):
             limit = None if base is None else radius * base
             qp_lo, qp_hi = lo, hi
             if limit is not None and settings.trust_bounds:
@@ -462,8 +474,10 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
 
 def stop_without_step(mu: float, failed: int, settings: ILQRSettings) -> StopReason:
     """Why the solver stops when an iteration accepted no step: the regulariser past
-    reg_max, max_failed_searches failed line searches, or else a model predicting no
-    worthwhile decrease (converged)."""
+    reg_max, max_failed_searches failed line searches, the deadline, or else a model
+    predicting no worthwhile decrease (converged)."""
+    if past(settings.deadline):
+        return StopReason.TIME_BUDGET
     if mu > settings.reg_max:
         return StopReason.REGULARIZATION_LIMIT
     if failed and failed == settings.max_failed_searches:
@@ -530,6 +544,8 @@ def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, differen
     for gain in gains:
         alphas = [alpha0 * 0.5 ** i for i in range(settings.line_search_steps)]
         for start in range(0, len(alphas), batch):
+            if entry.get("tries") and past(settings.deadline):
+                return None
             chunk = alphas[start:start + batch]
             passes = forward_passes_of(dynamics, xs, us, k, gain, chunk, lo, hi, difference,
                                      limit)

@@ -41,6 +41,7 @@ from drake_clutter.solvers.ilqr import (
     box_qp_solve,
     forward_passes_of,
     nearest_psd,
+    past,
     per_knot_bounds,
     rollout,
     stalled,
@@ -178,11 +179,15 @@ def _iterate(s: _State, settings: ILQRSettings, lo_c, hi_c) -> ILQRResult:
     mu, radius, alpha0 = settings.reg_init, 1.0, 1.0
     stop_reason, iteration, du = StopReason.MAX_ITERATIONS, 0, np.zeros_like(s.us)
     while iteration < settings.max_iterations:
+        if past(settings.deadline):
+            stop_reason = StopReason.TIME_BUDGET
+            break
         iteration += 1
         g, H, nonfinite = s.model()
         accepted, failed = False, 0
-        while mu <= settings.reg_max and (settings.max_failed_searches is None
-                                          or failed < settings.max_failed_searches):
+        while (mu <= settings.reg_max and not past(settings.deadline)
+               and (settings.max_failed_searches is None
+                    or failed < settings.max_failed_searches)):
             limit = None if base is None else radius * base
             lower, upper = (lo_c - s.C).ravel(), (hi_c - s.C).ravel()
             if limit is not None:
@@ -259,6 +264,8 @@ def _line_search(s: _State, dC: np.ndarray, settings: ILQRSettings, entry: dict,
     alphas = [alpha0 * 0.5 ** i for i in range(settings.line_search_steps)]
     free = np.full(s.us.shape, -np.inf), np.full(s.us.shape, np.inf)
     for start in range(0, len(alphas), batch):
+        if start and past(settings.deadline):
+            return False
         chunk = alphas[start:start + batch]
         tic = time.perf_counter()
         passes = forward_passes_of(s.dynamics, s.xs, s.us, k, K, chunk, *free, s.difference,

@@ -518,3 +518,43 @@ def test_a_feedback_mask_feeds_back_only_its_coordinates():
     assert not np.array_equal(run["half"].us, run["closed"].us)
     assert not np.array_equal(run["half"].us, run["open"].us)
     assert np.abs(run["none"].K).max() > 0  # the result keeps the full gains
+
+
+class _SlowPendulum(Pendulum):
+    """The pendulum with a linearization that takes ``seconds`` of wall time."""
+
+    def __init__(self, seconds: float):
+        super().__init__()
+        self.seconds = seconds
+
+    def linearize(self, xs, us):
+        import time
+
+        time.sleep(self.seconds)
+        return super().linearize(xs, us)
+
+
+def test_a_passed_deadline_stops_the_solver_before_its_first_iteration():
+    import time
+
+    settings = ILQRSettings(max_iterations=30, deadline=time.perf_counter() - 1.0)
+    result = solve(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)
+    assert result.stop_reason == "time_budget" and result.iterations == 0
+    np.testing.assert_array_equal(result.us, np.zeros((80, 1)))
+    assert len(result.cost_history) == 1
+
+
+def test_a_deadline_ends_the_solve_within_one_iteration_with_its_best_path():
+    import time
+
+    free = solve(_SlowPendulum(0.0), SwingUpCost(), np.zeros(2), np.zeros((80, 1)),
+                 ILQRSettings(max_iterations=30))
+    assert free.iterations > 6
+    tic = time.perf_counter()
+    settings = ILQRSettings(max_iterations=30, deadline=tic + 0.25)
+    result = solve(_SlowPendulum(0.1), SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)
+    elapsed = time.perf_counter() - tic
+    assert result.stop_reason == "time_budget"
+    assert 1 <= result.iterations <= 3 and elapsed < 0.25 + 0.1 + 0.1  # one iteration past
+    # the same steps as the free run: the path is that run's after as many iterations
+    np.testing.assert_allclose(result.cost_history, free.cost_history[:result.iterations + 1])

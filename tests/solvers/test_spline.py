@@ -3,6 +3,8 @@ within the spline, derivatives against differences, bounds, pins and a nonlinear
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -120,3 +122,18 @@ def test_per_knot_pins_no_spline_can_meet_are_rejected():
     with pytest.raises(ValueError, match="feasible"):
         solve_spline(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((20, 1)),
                      spline_basis(21, 8, 4), np.zeros(1), ILQRSettings(u_min=lo, u_max=hi))
+
+
+def test_a_deadline_stops_the_spline_solver_with_its_best_path():
+    import time
+
+    T = 80
+    basis = spline_basis(T + 1, 20, 4)
+    settings = ILQRSettings(max_iterations=60, u_min=(-2.5,), u_max=(2.5,))
+    free = solve_spline(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((T, 1)), basis,
+                        np.zeros(1), settings)
+    spent = solve_spline(Pendulum(), SwingUpCost(), np.zeros(2), np.zeros((T, 1)), basis,
+                         np.zeros(1), replace(settings, deadline=time.perf_counter()))
+    assert free.stop_reason != "time_budget" and free.iterations > 0
+    assert spent.stop_reason == "time_budget" and spent.iterations == 0
+    assert spent.cost_history == free.cost_history[:1]

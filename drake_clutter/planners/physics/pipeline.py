@@ -53,6 +53,15 @@ rotations as rotation vectors, `ilqr.solve`'s ``difference``). The start q^0 is 
 controls q^1..q^Delta are box-bounded by the PR2's joint limits and the gripper's [0, 0.09] m
 (clamped in the forward pass, the feedback of bound controls dropped: see `ilqr`).
 
+The time budget (ours, ``physics.time_budget``, s per candidate): every solver stops at its
+deadline with its best path so far (an iLQR step is taken only when it lowers the stage's
+objective, and a phi stage starts from the lowest of its starts); once it has passed, the
+phi stages, the search and ``select`` are left out and the post-processing takes no step, so
+the plan is the last phi stage's path (the pre-processed one if no phi stage ran).
+``details["time_budget"]`` records the stages cut short (``stopped``) or left out
+(``skipped``) and the path returned. What cannot be cut: one linearization or one batch of
+forward passes, a phi stage's pruning and settling, the height choice.
+
 A phi stage whose initial path phi cannot simulate starts again from the baseline's path (its
 record's ``started_from`` says so). A failure (phi diverging on that too, a solver error) is a
 candidate with status ``optimisation_failed`` and a reason, never an exception.
@@ -66,7 +75,7 @@ k_t with the kept boxes' names (the state layout they refer to).
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -140,18 +149,21 @@ def knot_bounds(q_ref: np.ndarray, last_knot: bool = False, gripper: bool = Fals
 
 
 def solver_settings(config: Config, iterations: int, knot_time: float | None = None,
-                    bounds: tuple[np.ndarray, np.ndarray] | None = None) -> ilqr.ILQRSettings:
+                    bounds: tuple[np.ndarray, np.ndarray] | None = None,
+                    deadline: float | None = None) -> ilqr.ILQRSettings:
     """The solver's settings (line search of `PhysicsConfig`); with ``knot_time`` (s) those of
     a phi stage: also the trust region, the open-loop retry, the failed-search stop (the
     kinematic stages need mu ~ 1 before their first step, measured on fig5/fig6) and the cost
     floor 0 (every Table I term is non-negative; fig6's first model predicted a decrease of
     6.8e5 from an objective of 2.7e3 and every rollout failed, measured). ``bounds``: per-knot
-    (lo, hi) of `knot_bounds` (default: `control_bounds` at every knot)."""
+    (lo, hi) of `knot_bounds` (default: `control_bounds` at every knot). ``deadline``: a
+    time.perf_counter() value (s) past which the solver stops with its best path so far."""
     lo, hi = control_bounds() if bounds is None else bounds
     cfg = config.physics
     settings = ilqr.ILQRSettings(max_iterations=iterations, tolerance=cfg.tolerance,
                                  u_min=lo, u_max=hi, line_search_steps=cfg.line_search_steps,
-                                 adaptive_step=cfg.adaptive_step, box_qp=cfg.box_qp)
+                                 adaptive_step=cfg.adaptive_step, box_qp=cfg.box_qp,
+                                 deadline=deadline)
     if knot_time is None:
         return settings
     limit = tuple(float(v) for v in cfg.step_limit_fraction * max_steps(cfg, knot_time))
@@ -185,9 +197,10 @@ def _json_log(log: list[dict]) -> list[dict]:
 
 
 def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
-               geometry: ArmGeometry | None = None) -> tuple[np.ndarray, ilqr.ILQRResult]:
+               geometry: ArmGeometry | None = None, deadline: float | None = None
+               ) -> tuple[np.ndarray, ilqr.ILQRResult]:
     """Sec. V-A on a knot path (T + 1, 8): the path with less box contact, and the solver's
-    result."""
+    result (stopped at ``deadline``, see `solver_settings`)."""
     geometry = geometry or ArmGeometry(scene, "capsules")
     objective = KinematicObjective(
         geometry, config.physics, "pre", config.baseline.d_safe, scene.target,
@@ -197,14 +210,16 @@ def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
     keep = config.physics.pre_keep_pregrasp
     bounds = knot_bounds(q_init, last_knot=keep, gripper=keep)
     result = ilqr.solve(KinematicArm(), objective, q_init[0], q_init[1:],
-                        solver_settings(config, config.physics.pre_iterations, bounds=bounds))
+                        solver_settings(config, config.physics.pre_iterations, bounds=bounds,
+                                        deadline=deadline))
     return result.xs, result
 
 
 def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
-                geometry: ArmGeometry | None = None) -> tuple[np.ndarray, ilqr.ILQRResult]:
+                geometry: ArmGeometry | None = None, deadline: float | None = None
+                ) -> tuple[np.ndarray, ilqr.ILQRResult]:
     """Sec. V-B on a knot path (T + 1, 8): c_static in the evaluation geometry, c_match and
-    c_match_vel to ``q_ref``."""
+    c_match_vel to ``q_ref`` (stopped at ``deadline``, see `solver_settings`)."""
     geometry = geometry or ArmGeometry(scene, config.physics.post_variant)
     objective = KinematicObjective(geometry, config.physics, "post", config.baseline.d_safe,
                                    scene.target, q_ref=q_ref,
@@ -212,15 +227,16 @@ def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
     keep = config.physics.post_keep_end
     bounds = knot_bounds(q_ref, last_knot=keep, gripper=keep)
     result = ilqr.solve(KinematicArm(), objective, q_ref[0], q_ref[1:],
-                        solver_settings(config, config.physics.post_iterations, bounds=bounds))
+                        solver_settings(config, config.physics.post_iterations, bounds=bounds,
+                                        deadline=deadline))
     return result.xs, result
 
 
 def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
                   pool: WorkerPool | None = None, times: np.ndarray | None = None,
                   alternatives: tuple[np.ndarray, ...] = (),
-                  approach: np.ndarray | None = None, min_opening: float | None = None
-                  ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
+                  approach: np.ndarray | None = None, min_opening: float | None = None,
+                  deadline: float | None = None) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
     """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
     default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
     stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
@@ -228,7 +244,7 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
     this stage's phi (pruned for all of them); info's ``start_objectives`` lists them.
     ``approach``: the final approach direction in W of c_approach
     (`PhysicsConfig.approach_knots`); ``min_opening``: the last knot's least gripper opening
-    (m, `knot_bounds`)."""
+    (m, `knot_bounds`); ``deadline``: see `solver_settings`."""
     knot_time = _knot_time(times, config)
     with stage_problem(scene, q, config, variant, pool, knot_time, approach,
                        also=tuple(alternatives)) as problem:
@@ -244,7 +260,7 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
             raise PhiFailure("phi failed on the initial rollout")
         q = starts[int(np.argmin(values))]
         bounds = knot_bounds(q, min_final_opening=min_opening)
-        settings = solver_settings(config, iterations, knot_time, bounds)
+        settings = solver_settings(config, iterations, knot_time, bounds, deadline)
         if config.physics.feedback_state == "arm":
             settings = replace(settings, feedback_mask=arm_feedback_mask(augmented))
         if basis is None:
@@ -331,7 +347,8 @@ def _presses(scene: Scene, paths: dict[str, np.ndarray], config: Config) -> dict
 
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
                           variant: str, iterations: int, pool, times,
-                          alternatives: tuple[np.ndarray, ...] = (), approach=None):
+                          alternatives: tuple[np.ndarray, ...] = (), approach=None,
+                          deadline: float | None = None):
     """`physics_stage` from ``paths[0]`` (or the best of ``alternatives``, see there); if phi
     cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
     the pre-processing or sphere stage produced with the hydroelastic phi, measured on
@@ -339,7 +356,7 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
     opening = (float(paths[1][-1, GRIPPER]) if config.physics.keep_open else None)
     try:
         q, result, info = physics_stage(scene, paths[0], config, variant, iterations, pool,
-                                        times, alternatives, approach, opening)
+                                        times, alternatives, approach, opening, deadline)
         best = int(np.argmin(info["start_objectives"]))
         return q, result, {**info, "started_from": "previous stage" if best == 0 else
                            f"alternative {best}"}
@@ -347,7 +364,8 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
         if np.array_equal(paths[0], paths[1]):
             raise
         q, result, info = physics_stage(scene, paths[1], config, variant, iterations, pool,
-                                        times, approach=approach, min_opening=opening)
+                                        times, approach=approach, min_opening=opening,
+                                        deadline=deadline)
         return q, result, {**info, "started_from": f"baseline ({exc})"}
 
 
@@ -365,6 +383,45 @@ def _search(scene: Scene, q: np.ndarray, baseline_q: np.ndarray, config: Config,
     return found.q, info
 
 
+@dataclass
+class Budget:
+    """One initialization's wall-time budget (``physics.time_budget``, s; None: no limit),
+    counted from its creation, and the stages it cut short or left out."""
+
+    seconds: float | None
+    start: float = field(default_factory=time.perf_counter)
+    stopped: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+
+    @property
+    def deadline(self) -> float | None:
+        """The time.perf_counter() value (s) at which the budget is spent; None: never."""
+        return None if self.seconds is None else self.start + self.seconds
+
+    def spent(self) -> bool:
+        """True once the deadline has passed."""
+        return ilqr.past(self.deadline)
+
+    def skip(self, stage: str) -> bool:
+        """True (and ``stage`` recorded as left out) when the budget is spent."""
+        if self.spent():
+            self.skipped.append(stage)
+            return True
+        return False
+
+    def note(self, stage: str, result: ilqr.ILQRResult) -> None:
+        """Records ``stage`` as cut short when its solver stopped at the deadline."""
+        if result.stop_reason == ilqr.StopReason.TIME_BUDGET:
+            self.stopped.append(stage)
+
+    def record(self, returned: str) -> dict:
+        """What the candidate's details keep: the budget, the time taken (s), whether it
+        was spent, the stages cut short and left out, and the path returned."""
+        return {"seconds": self.seconds, "elapsed": time.perf_counter() - self.start,
+                "spent": bool(self.stopped or self.skipped), "stopped": list(self.stopped),
+                "skipped": list(self.skipped), "returned": returned}
+
+
 def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> Candidate:
     return Candidate(candidate.alpha, CandidateStatus.OPTIMISATION_FAILED, reason,
                      candidate.trajectory, planner="physics", timings=timings, details=details)
@@ -378,6 +435,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         return replace(candidate, planner="physics",
                        reason=f"no initialization: {candidate.reason or candidate.status}")
     cfg = config.physics
+    budget = Budget(cfg.time_budget)
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
     if cfg.grasp_heights or cfg.approach_offsets:
         tic = time.perf_counter()
@@ -394,15 +452,16 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
                 if cfg.approach_knots > 0 else None)
     tic = time.perf_counter()
     try:
-        q, result = preprocess(scene, q, config)
+        q, result = preprocess(scene, q, config, deadline=budget.deadline)
     except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
         timings["pre"] = time.perf_counter() - tic
         return _failed(candidate, f"pre stage: {exc}", timings, details)
     timings["pre"] = time.perf_counter() - tic
+    budget.note("pre", result)
     details["stages"]["pre"] = _stage_record(result, timings["pre"])
     q_pre = q
     q_search = None
-    if cfg.search == "sampling":
+    if cfg.search == "sampling" and not budget.skip("search"):
         tic = time.perf_counter()
         try:
             q_search, details["search"] = _search(scene, q_pre, baseline_q, config, pool,
@@ -415,7 +474,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
               ("full", "capsules", cfg.iterations - min(cfg.sphere_iterations, cfg.iterations)))
     last = None
     for name, variant, iterations in stages:
-        if iterations <= 0:
+        if iterations <= 0 or budget.skip(name):
             continue
         tic = time.perf_counter()
         try:
@@ -428,22 +487,25 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
                                if p is not q and not np.array_equal(p, q))
             q, result, info = _phi_stage_or_restart(scene, (q, baseline_q), config, variant,
                                                     iterations, pool, candidate.trajectory.times,
-                                                    others, approach)
+                                                    others, approach, budget.deadline)
         except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
             timings[name] = time.perf_counter() - tic
             return _failed(candidate, f"{name} stage: {exc}", timings, details)
         timings[name] = time.perf_counter() - tic
         details["stages"][name] = _stage_record(result, timings[name], info)
+        budget.note(name, result)
         last = (result, info)
     tic = time.perf_counter()
     try:
-        q, result = postprocess(scene, q, config)
+        q, result = postprocess(scene, q, config, deadline=budget.deadline)
     except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
         timings["post"] = time.perf_counter() - tic
         return _failed(candidate, f"post stage: {exc}", timings, details)
     timings["post"] = time.perf_counter() - tic
     details["stages"]["post"] = _stage_record(result, timings["post"])
-    if cfg.select_in_phi:
+    budget.note("post", result)
+    chosen = "post"
+    if cfg.select_in_phi and not budget.skip("select"):
         tic = time.perf_counter()
         paths = {"post": q, "pre": q_pre, "baseline": baseline_q}
         if q_search is not None:
@@ -455,6 +517,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
             chosen, details["select"] = "post", {"chosen": "post", "error": str(exc)}
         q = paths[chosen]
         timings["select"] = time.perf_counter() - tic
+    details["time_budget"] = budget.record(chosen)
     if last is not None:
         details["feedback"] = {"boxes": last[1]["kept_boxes"], "K": last[0].K.tolist(),
                                "k": last[0].k.tolist()}

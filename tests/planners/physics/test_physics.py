@@ -773,6 +773,51 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate, control
     assert np.all(q[1:] >= np.array(lo) - 1e-12) and np.all(q[1:] <= np.array(hi) + 1e-12)
 
 
+def test_a_spent_time_budget_returns_the_start_and_records_the_stages_left_out(
+        scene, fig5_candidate):
+    """A budget spent before the first stage: no solver takes a step, no phi is built, the
+    plan is the path the height choice started from, and the details say so."""
+    from drake_clutter.common.config import load_config
+    from drake_clutter.planners.physics.pipeline import plan_physics
+
+    config = load_config(None, ["dynamics.workers=0", "physics.time_budget=1e-6"])
+    (plan,) = plan_physics(scene, config, [fig5_candidate])
+    assert plan.ok, plan.reason
+    budget = plan.details["time_budget"]
+    assert budget["spent"] and budget["seconds"] == 1e-6 and budget["returned"] == "post"
+    assert budget["stopped"] == ["pre", "post"] and budget["skipped"] == ["sphere", "full",
+                                                                         "select"]
+    assert set(plan.timings) == {"height", "pre", "post"} and "select" not in plan.details
+    assert all(plan.details["stages"][n]["iterations"] == 0 for n in ("pre", "post"))
+    if plan.details["grasp_height"]["chosen"] == "0.5":
+        np.testing.assert_array_equal(plan.trajectory.q, fig5_candidate.trajectory.q)
+
+
+def test_a_time_budget_spent_in_a_phi_stage_keeps_that_stages_best_path(scene,
+                                                                       fig5_candidate):
+    """A 3 s budget on fig5 (the free run takes about 25 s): the sphere stage stops at the
+    deadline (or is left out on a slow machine), the full stage and select are left out, and
+    the plan is the lowest-objective path the phi stage reached, within the joint bounds."""
+    from drake_clutter.common.config import load_config
+    from drake_clutter.planners.physics.pipeline import control_bounds, plan_physics
+
+    config = load_config(None, ["dynamics.workers=0", "physics.time_budget=3"])
+    (plan,) = plan_physics(scene, config, [fig5_candidate])
+    assert plan.ok, plan.reason
+    budget = plan.details["time_budget"]
+    assert budget["spent"] and {"full", "select"} <= set(budget["skipped"])
+    assert "sphere" in budget["stopped"] + budget["skipped"]
+    assert "full" not in plan.details["stages"] and budget["elapsed"] >= 3.0
+    sphere = plan.details["stages"].get("sphere")
+    if sphere is not None:
+        assert sphere["stop_reason"] == "time_budget"
+        assert np.all(np.diff(sphere["cost_history"]) <= 0)
+    q = plan.trajectory.q
+    lo, hi = control_bounds()
+    assert np.all(np.isfinite(q)) and np.all(q[1:] >= np.array(lo) - 1e-12)
+    assert np.all(q[1:] <= np.array(hi) + 1e-12)
+
+
 def test_the_model_repairs_run_through_every_stage(scene, fig5_candidate):
     """Box QP, the trust region as QP bounds adapted by actual/predicted, the scaled
     regulariser, arm-only feedback and contact knots differentiated despite the stride: the
@@ -824,7 +869,7 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
     calls = []
 
     def stage(scene, q, config, variant, iterations, pool, times, alternatives=(),
-              approach=None, min_opening=None):
+              approach=None, min_opening=None, deadline=None):
         calls.append(q)
         if q[0, 0] == 1.0:  # phi cannot simulate the previous stage's path
             raise physics.PhiFailure("phi failed on the initial rollout")

@@ -5,7 +5,7 @@
     python apps/plan_scene.py --scene fig7_cascade    # a shipped scene by name, or a YAML file
     python apps/plan_scene.py --html out.html         # write a self-contained HTML file instead
     python apps/plan_scene.py --planner baseline      # one planner only (baseline: seconds)
-    python apps/plan_scene.py --angles 14 --iterations 30   # the paper's budget (slow)
+    python apps/plan_scene.py --angles 14 --iterations 30   # Sec. V's iLQR through phi (slow)
 
 The baseline (Sec. IV) plans ``--angles`` approach angles; the physics planner (Sec. V) optimises
 every baseline candidate that came out usable (``--planner both``, the default, shows both;
@@ -48,13 +48,13 @@ _RANK = OUTCOME_KINDS
 ALL_PLANNERS = "both"  # --planner: every registered planner
 
 
-def with_iterations(config, iterations: int):
-    """``config`` with ``iterations`` physics iterations, the sphere-proxy ones in the same
-    proportion as in ``config`` (10 of 30 by default)."""
-    physics = config.physics
-    share = physics.sphere_iterations / max(physics.iterations, 1)
-    physics = dataclasses.replace(physics, iterations=iterations,
-                                  sphere_iterations=round(share * iterations))
+def with_iterations(config, iterations: int | None):
+    """``config`` with ``iterations`` physics iterations through phi, a third of them with
+    the sphere proxy (Sec. V: 10 of 30); None: ``config`` as it is."""
+    if iterations is None:
+        return config
+    physics = dataclasses.replace(config.physics, iterations=iterations,
+                                  sphere_iterations=round(iterations / 3))
     return dataclasses.replace(config, physics=physics)
 
 
@@ -216,9 +216,10 @@ def _parser() -> argparse.ArgumentParser:
                         help="publish once and exit instead of serving until interrupted")
     parser.add_argument("--angles", type=int, default=2,
                         help="approach angles to plan (default 2; the paper uses 14)")
-    parser.add_argument("--iterations", type=int, default=4,
-                        help="physics iLQR iterations per candidate (default 4, a quick demo; "
-                        "the paper's 30: --iterations 30); the sphere-proxy share scales along")
+    parser.add_argument("--iterations", type=int, default=None,
+                        help="physics iLQR iterations through phi per candidate, a third with "
+                        "the sphere proxy (default: the configuration's, 0: no phi stages; "
+                        "the paper's Sec. V: --iterations 30)")
     parser.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1),
                         help="processes planning the angles side by side, each angle alone "
                         "(default: 2, or 1 on one core; 1: every angle in a row, the baseline "
@@ -234,7 +235,7 @@ def _check(args) -> None:
         raise InputError("<command line>", "--angles", f"must be at least 1, got {args.angles}")
     if args.jobs < 1:
         raise InputError("<command line>", "--jobs", f"must be at least 1, got {args.jobs}")
-    if args.iterations < 0:
+    if args.iterations is not None and args.iterations < 0:
         raise InputError("<command line>", "--iterations",
                          f"must be at least 0, got {args.iterations}")
     for flag, value in (("--html", args.html), ("--costs", args.costs)):

@@ -88,10 +88,10 @@ class DynamicsConfig:
 class PhysicsConfig:
     """The physics-based planner (Sec. V, Tables I and II)."""
 
-    # cap on the iLQR iterations, count; Sec. V
-    iterations: int = bounded(30, ge=0)
-    # first iterations run with the sphere gripper proxy, count; Sec. V
-    sphere_iterations: int = bounded(10, ge=0)
+    # cap on the iLQR iterations through phi (0: no phi stages; Sec. V: 30), count; ours
+    iterations: int = bounded(0, ge=0)
+    # first iterations run with the sphere gripper proxy (Sec. V: 10 of the 30), count; ours
+    sphere_iterations: int = bounded(0, ge=0)
     # the target in the sphere stage's phi ("passes" or "parked"), choice; ours
     sphere_target: Literal["passes", "parked"] = "parked"
     # weight of c_static, unitless; Table II

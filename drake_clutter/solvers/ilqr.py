@@ -144,13 +144,15 @@ class ILQRSettings:
     # in a row each lowered the objective by less than this fraction of the decrease since
     # the start (the tail of a converging run buys little); 0: no such rule
     stall_iterations: int = 2
-    deadline: float | None = None  # a time.perf_counter() value (s) past which no iteration
-    # and no further line search starts ("time_budget"); the result is the best path so far
+    deadline: float | None = None  # a time.perf_counter() value (s): no iteration starts that
+    # the last one's duration says would end past it, no line search once it has passed
+    # ("time_budget"); the result is the best path so far
 
 
-def past(deadline: float | None) -> bool:
-    """True when ``deadline`` (a time.perf_counter() value, s) is set and has passed."""
-    return deadline is not None and time.perf_counter() >= deadline
+def past(deadline: float | None, ahead: float = 0.0) -> bool:
+    """True when ``deadline`` (a time.perf_counter() value, s) is set and will have passed
+    ``ahead`` seconds from now."""
+    return deadline is not None and time.perf_counter() + ahead >= deadline
 
 
 class StopReason(StrEnum):
@@ -396,12 +398,13 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     k = np.zeros_like(us)
     stop_reason = StopReason.MAX_ITERATIONS
     iteration, alpha0 = 0, 1.0
+    last = 0.0  # the last iteration's wall time (s), the next one's forecast
     while iteration < settings.max_iterations:
-        if past(settings.deadline):
+        if past(settings.deadline, last):
             stop_reason = StopReason.TIME_BUDGET
             break
         iteration += 1
-        tic = time.perf_counter()
+        tic = begun = time.perf_counter()
         A, B = dynamics.linearize(xs, us)
         timings["linearize"] += time.perf_counter() - tic
         tic = time.perf_counter()
@@ -451,6 +454,7 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
             iteration -= 1
             break
         xs, us, terms, new_total = step
+        last = time.perf_counter() - begun
         if settings.adaptive_step:
             alpha0 = min(1.0, 2.0 * entry["alpha"])
         mu = max(mu / settings.reg_factor, settings.reg_min)

@@ -178,11 +178,13 @@ def _iterate(s: _State, settings: ILQRSettings, lo_c, hi_c) -> ILQRResult:
     history, term_history, log = [s.total], [s.terms], []
     mu, radius, alpha0 = settings.reg_init, 1.0, 1.0
     stop_reason, iteration, du = StopReason.MAX_ITERATIONS, 0, np.zeros_like(s.us)
+    last = 0.0  # the last iteration's wall time (s), the next one's forecast
     while iteration < settings.max_iterations:
-        if past(settings.deadline):
+        if past(settings.deadline, last):
             stop_reason = StopReason.TIME_BUDGET
             break
         iteration += 1
+        begun = time.perf_counter()
         g, H, nonfinite = s.model()
         accepted, failed = False, 0
         while (mu <= settings.reg_max and not past(settings.deadline)
@@ -225,6 +227,7 @@ def _iterate(s: _State, settings: ILQRSettings, lo_c, hi_c) -> ILQRResult:
             stop_reason = stop_without_step(mu, failed, settings)
             iteration -= 1
             break
+        last = time.perf_counter() - begun
         if settings.adaptive_step:
             alpha0 = min(1.0, 2.0 * entry["alpha"])
         mu = max(mu / settings.reg_factor, settings.reg_min)

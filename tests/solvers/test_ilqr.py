@@ -544,7 +544,7 @@ def test_a_passed_deadline_stops_the_solver_before_its_first_iteration():
     assert len(result.cost_history) == 1
 
 
-def test_a_deadline_ends_the_solve_within_one_iteration_with_its_best_path():
+def test_a_deadline_stops_the_solve_before_an_iteration_that_would_pass_it():
     import time
 
     free = solve(_SlowPendulum(0.0), SwingUpCost(), np.zeros(2), np.zeros((80, 1)),
@@ -555,6 +555,7 @@ def test_a_deadline_ends_the_solve_within_one_iteration_with_its_best_path():
     result = solve(_SlowPendulum(0.1), SwingUpCost(), np.zeros(2), np.zeros((80, 1)), settings)
     elapsed = time.perf_counter() - tic
     assert result.stop_reason == "time_budget"
-    assert 1 <= result.iterations <= 3 and elapsed < 0.25 + 0.1 + 0.1  # one iteration past
+    # the third iteration would end past the deadline: the solver stops before it
+    assert 1 <= result.iterations <= 2 and elapsed < 0.25
     # the same steps as the free run: the path is that run's after as many iterations
     np.testing.assert_allclose(result.cost_history, free.cost_history[:result.iterations + 1])

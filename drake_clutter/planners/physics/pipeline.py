@@ -57,7 +57,9 @@ The time budget (ours, ``physics.time_budget``, s per candidate): every solver s
 deadline with its best path so far (an iLQR step is taken only when it lowers the stage's
 objective, and a phi stage starts from the lowest of its starts); once it has passed, the
 phi stages, the search and ``select`` are left out and the post-processing takes no step, so
-the plan is the last phi stage's path (the pre-processed one if no phi stage ran).
+the plan is the last phi stage's path (the pre-processed one if no phi stage ran). A solver
+starts no iteration that its last one's duration says would end past the deadline, and no
+stage that builds a phi starts when the last phi stage's set-up and first iteration would.
 ``details["time_budget"]`` records the stages cut short (``stopped``) or left out
 (``skipped``) and the path returned. What cannot be cut: one linearization or one batch of
 forward passes, a phi stage's pruning and settling, the height choice.
@@ -392,6 +394,7 @@ class Budget:
     start: float = field(default_factory=time.perf_counter)
     stopped: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
+    forecast: float = 0.0  # s a phi world's set-up and one iteration took (`learn`)
 
     @property
     def deadline(self) -> float | None:
@@ -402,12 +405,22 @@ class Budget:
         """True once the deadline has passed."""
         return ilqr.past(self.deadline)
 
-    def skip(self, stage: str) -> bool:
-        """True (and ``stage`` recorded as left out) when the budget is spent."""
-        if self.spent():
+    def skip(self, stage: str, phi: bool = False) -> bool:
+        """True (and ``stage`` recorded as left out) when the budget is spent, or, for a
+        stage that builds a phi (``phi``), would be before its set-up and first iteration
+        end (the last phi stage's, `learn`)."""
+        if ilqr.past(self.deadline, self.forecast if phi else 0.0):
             self.skipped.append(stage)
             return True
         return False
+
+    def learn(self, record: dict) -> None:
+        """Takes a phi stage's record (`_stage_record`) as the forecast of the next phi
+        world: its time less all its iterations but one."""
+        spent = sum(record["timings"].get(k, 0.0) for k in
+                    ("linearize", "quadratize", "backward", "forward"))
+        iterations = max(1, record["iterations"])
+        self.forecast = max(0.0, record["seconds"] - spent * (iterations - 1) / iterations)
 
     def note(self, stage: str, result: ilqr.ILQRResult) -> None:
         """Records ``stage`` as cut short when its solver stopped at the deadline."""
@@ -461,7 +474,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     details["stages"]["pre"] = _stage_record(result, timings["pre"])
     q_pre = q
     q_search = None
-    if cfg.search == "sampling" and not budget.skip("search"):
+    if cfg.search == "sampling" and not budget.skip("search", phi=True):
         tic = time.perf_counter()
         try:
             q_search, details["search"] = _search(scene, q_pre, baseline_q, config, pool,
@@ -474,7 +487,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
               ("full", "capsules", cfg.iterations - min(cfg.sphere_iterations, cfg.iterations)))
     last = None
     for name, variant, iterations in stages:
-        if iterations <= 0 or budget.skip(name):
+        if iterations <= 0 or budget.skip(name, phi=True):
             continue
         tic = time.perf_counter()
         try:
@@ -494,6 +507,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         timings[name] = time.perf_counter() - tic
         details["stages"][name] = _stage_record(result, timings[name], info)
         budget.note(name, result)
+        budget.learn(details["stages"][name])
         last = (result, info)
     tic = time.perf_counter()
     try:
@@ -505,7 +519,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     details["stages"]["post"] = _stage_record(result, timings["post"])
     budget.note("post", result)
     chosen = "post"
-    if cfg.select_in_phi and not budget.skip("select"):
+    if cfg.select_in_phi and not budget.skip("select", phi=True):
         tic = time.perf_counter()
         paths = {"post": q, "pre": q_pre, "baseline": baseline_q}
         if q_search is not None:

@@ -780,7 +780,8 @@ def test_a_spent_time_budget_returns_the_start_and_records_the_stages_left_out(
     from drake_clutter.common.config import load_config
     from drake_clutter.planners.physics.pipeline import plan_physics
 
-    config = load_config(None, ["dynamics.workers=0", "physics.time_budget=1e-6"])
+    config = load_config(None, ["dynamics.workers=0", "physics.time_budget=1e-6",
+                                "physics.iterations=30", "physics.sphere_iterations=10"])
     (plan,) = plan_physics(scene, config, [fig5_candidate])
     assert plan.ok, plan.reason
     budget = plan.details["time_budget"]
@@ -795,13 +796,15 @@ def test_a_spent_time_budget_returns_the_start_and_records_the_stages_left_out(
 
 def test_a_time_budget_spent_in_a_phi_stage_keeps_that_stages_best_path(scene,
                                                                        fig5_candidate):
-    """A 3 s budget on fig5 (the free run takes about 25 s): the sphere stage stops at the
-    deadline (or is left out on a slow machine), the full stage and select are left out, and
-    the plan is the lowest-objective path the phi stage reached, within the joint bounds."""
+    """A 3 s budget on fig5 with Sec. V's phi stages (the free run takes about 25 s): the
+    sphere stage stops at the deadline (or is left out on a slow machine), the full stage and
+    select are left out, and the plan is the lowest-objective path the phi stage reached,
+    within the joint bounds."""
     from drake_clutter.common.config import load_config
     from drake_clutter.planners.physics.pipeline import control_bounds, plan_physics
 
-    config = load_config(None, ["dynamics.workers=0", "physics.time_budget=3"])
+    config = load_config(None, ["dynamics.workers=0", "physics.time_budget=3",
+                                "physics.iterations=30", "physics.sphere_iterations=10"])
     (plan,) = plan_physics(scene, config, [fig5_candidate])
     assert plan.ok, plan.reason
     budget = plan.details["time_budget"]

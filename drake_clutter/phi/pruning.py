@@ -11,7 +11,7 @@ that the arm or a kept box reached dynamic too (``prune_rounds`` times at most).
 
 Pruning looks at the CURRENT box states and one trajectory: a planner whose iterations move the
 trajectory or the boxes far re-prunes and builds a new phi (`make_pruned_spec` again);
-`rollout_touches_frozen` tells it when a frozen box is being reached.
+`rollouts_touch_frozen` tells it when a frozen box is being reached.
 
 Distances are Drake signed distances (m) between the arm's geometry (the chosen URDF variant)
 and the boxes' Box shapes, all in W.
@@ -158,8 +158,7 @@ def make_pruned_spec(scene: Scene, arm_path: np.ndarray,
                      world_config, variant)
     while rounds < config.prune_rounds and spec.frozen:
         rounds += 1
-        touched = set().union(*(rollout_touches_frozen(spec, path, states)
-                                for path in (arm_path, *other_paths)))
+        touched = rollouts_touch_frozen(spec, (arm_path, *other_paths), states)
         if not touched:
             break
         kept |= touched
@@ -175,17 +174,24 @@ def _in_scene_order(scene: Scene, names) -> list[str]:
     return [b.name for b in scene.boxes if b.name in names]
 
 
-def rollout_touches_frozen(spec: PhiSpec, arm_path: np.ndarray,
-                           box_states: dict[str, np.ndarray]) -> set[str]:
+def rollouts_touch_frozen(spec: PhiSpec, arm_paths: tuple[np.ndarray, ...],
+                          box_states: dict[str, np.ndarray]) -> set[str]:
     """Frozen boxes that the arm or a kept box comes within ``interaction_margin`` of when
-    phi plays ``arm_path`` from the settled start."""
+    phi plays any of ``arm_paths`` (knot rows) from the settled start: one phi for all of
+    them, settled once per distinct start configuration."""
     phi = Phi(spec)
-    x = phi.settle(initial_state(spec.layout, arm_path[0], box_states))
+    settled: list[tuple[np.ndarray, np.ndarray]] = []
     touched: set[str] = set()
-    for u in np.asarray(arm_path)[1:]:
-        x, edges = phi.step_traced(x, u)
-        touched |= phi.frozen_touched(edges)
-        if not np.all(np.isfinite(x)):
-            break
+    for path in arm_paths:
+        path = np.asarray(path, dtype=float)
+        x = next((x0 for q0, x0 in settled if np.array_equal(q0, path[0])), None)
+        if x is None:
+            x = phi.settle(initial_state(spec.layout, path[0], box_states))
+            settled.append((path[0], x))
+        for u in path[1:]:
+            x, edges = phi.step_traced(x, u)
+            touched |= phi.frozen_touched(edges)
+            if not np.all(np.isfinite(x)):
+                break
     return touched
 

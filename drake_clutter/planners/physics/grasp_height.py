@@ -116,8 +116,8 @@ def height_candidates(scene: Scene, candidate: Candidate, config: Config
     return out
 
 
-def choose_height(scene: Scene, candidate: Candidate, config: Config, pool=None
-                  ) -> tuple[Candidate, dict]:
+def choose_height(scene: Scene, candidate: Candidate, config: Config, pool=None,
+                  geometry: ArmGeometry | None = None) -> tuple[Candidate, dict]:
     """The candidate among `height_candidates` chosen by ``physics.height_choice`` and what was
     measured (per `start_key`, as text: its height h (m), its yaw offset (rad) and its press
     (m), with "clear" its side penetration (m) too, or its members' classes; the chosen key).
@@ -125,9 +125,10 @@ def choose_height(scene: Scene, candidate: Candidate, config: Config, pool=None
     (`penetration.path_depths` at most ``press_tolerance``), else the start. "clear": the
     first that neither presses nor enters a non-target box's side deeper than
     ``side_tolerance``, else as "press". "phi": the lowest mean `settled_class` over phi's
-    ``ensemble.members`` members (inf where phi fails in any); ties to the earlier."""
+    ``ensemble.members`` members (inf where phi fails in any); ties to the earlier.
+    ``geometry``: the scene's capsule arm with the boxes at rest (built here if None)."""
     found = height_candidates(scene, candidate, config)
-    geometry = ArmGeometry(scene, "capsules")
+    geometry = geometry or ArmGeometry(scene, "capsules")
     rule, physics = config.physics.height_choice, config.physics
     paths = {k: c.trajectory.q for k, c in found.items()}
     depths = box_depths(geometry, paths, config, scene.target) if rule != "phi" else {}

@@ -30,9 +30,9 @@ Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `object
    ``post_substeps`` configurations per knot interval) + c_match + c_match_vel to the physics
    plan;
 5. ``select`` (ours, ``select_in_phi``): the post-processed, the pre-processed and the
-   baseline's paths rolled out in one phi pruned for all three, with the full stage's objective
-   (hold tail included); the lowest is the plan (ties go to the earlier in that order), so the
-   physics plan is never worse than its baseline in phi's own objective. With
+   baseline's paths rolled out in one phi pruned for all three, with the full stage's
+   objective (hold tail included); the lowest is the plan (ties go to the earlier in that
+   order), so the physics plan is never worse than its baseline in phi's own objective. With
    ``ensemble.members`` > 1 the paths are ranked by their ensemble score instead
    (`ensemble.ensemble_scores`). With ``select_press`` a path that presses on a box's top
    (`penetration.path_press` deeper than ``press_tolerance``, the boxes at rest) ranks after
@@ -309,13 +309,14 @@ def _knot_time(times: np.ndarray | None, config: Config) -> float:
 
 
 def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
-                times: np.ndarray | None = None, approach: np.ndarray | None = None
-                ) -> tuple[str, dict]:
+                times: np.ndarray | None = None, approach: np.ndarray | None = None,
+                geometry: ArmGeometry | None = None) -> tuple[str, dict]:
     """The name of the knot path (each (T + 1, 8), one start) with the lowest objective of the
     full stage (capsule arm, hold tail) in one phi pruned for all ``paths`` - with
     ``ensemble.members`` > 1 the lowest ensemble score (`ensemble.ensemble_scores`) - and
     what was measured: each path's objective or score (None where phi fails) and the
-    pruning. Ties go to the earlier name; when phi fails on every path, the first."""
+    pruning. Ties go to the earlier name; when phi fails on every path, the first.
+    ``geometry``: the capsule arm with the boxes at rest, for the press check."""
     knot_time = _knot_time(times, config)
     names = list(paths)
     extra = {}
@@ -330,7 +331,8 @@ def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool
             values = {n: _path_objective(problem.augmented, problem.objective, problem.z0,
                                          paths[n]) for n in names}
             pruning = problem.report.summary()
-    presses = _presses(scene, paths, config) if config.physics.select_press else {}
+    presses = (_presses(scene, paths, config, geometry) if config.physics.select_press
+               else {})
     tolerance = config.physics.press_tolerance
     chosen = min(names, key=lambda n: (presses.get(n, 0.0) > tolerance, values[n],
                                        names.index(n)))
@@ -340,10 +342,13 @@ def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool
     return chosen, {"objectives": finite, "chosen": chosen, "pruning": pruning, **extra}
 
 
-def _presses(scene: Scene, paths: dict[str, np.ndarray], config: Config) -> dict[str, float]:
+def _presses(scene: Scene, paths: dict[str, np.ndarray], config: Config,
+             geometry: ArmGeometry | None = None) -> dict[str, float]:
     """Each path's deepest press on a box's top (m; `penetration.path_press`, the boxes at
-    rest, the capsule arm): the judge's usual kinematic failure as a geometric check."""
-    depths = box_depths(ArmGeometry(scene, "capsules"), paths, config, scene.target)
+    rest, the capsule arm ``geometry``): the judge's usual kinematic failure as a geometric
+    check."""
+    depths = box_depths(geometry or ArmGeometry(scene, "capsules"), paths, config,
+                        scene.target)
     return {name: press for name, (press, _) in depths.items()}
 
 
@@ -449,11 +454,15 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
                        reason=f"no initialization: {candidate.reason or candidate.status}")
     cfg = config.physics
     budget = Budget(cfg.time_budget)
+    # One capsule arm with the boxes at rest for every geometric check of the candidate (the
+    # phi stages' objectives own theirs: they move its boxes to phi's poses).
+    at_rest = ArmGeometry(scene, "capsules")
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
     if cfg.grasp_heights or cfg.approach_offsets:
         tic = time.perf_counter()
         try:
-            candidate, details["grasp_height"] = choose_height(scene, candidate, config, pool)
+            candidate, details["grasp_height"] = choose_height(scene, candidate, config, pool,
+                                                               at_rest)
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep the start
             details["grasp_height"] = {"error": str(exc)}
         timings["height"] = time.perf_counter() - tic
@@ -461,11 +470,10 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV);
     # only c_approach reads it.
-    approach = (ArmGeometry(scene, "capsules").tool_axis(baseline_q[-1], 0)[0]
-                if cfg.approach_knots > 0 else None)
+    approach = at_rest.tool_axis(baseline_q[-1], 0)[0] if cfg.approach_knots > 0 else None
     tic = time.perf_counter()
     try:
-        q, result = preprocess(scene, q, config, deadline=budget.deadline)
+        q, result = preprocess(scene, q, config, at_rest, budget.deadline)
     except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
         timings["pre"] = time.perf_counter() - tic
         return _failed(candidate, f"pre stage: {exc}", timings, details)
@@ -526,7 +534,8 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
             paths["search"] = q_search
         try:
             chosen, details["select"] = select_path(scene, paths, config, pool,
-                                                    candidate.trajectory.times, approach)
+                                                    candidate.trajectory.times, approach,
+                                                    at_rest)
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep post
             chosen, details["select"] = "post", {"chosen": "post", "error": str(exc)}
         q = paths[chosen]

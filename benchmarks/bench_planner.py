@@ -16,9 +16,11 @@ machine-independent measure of the planner's work; 'its' the accepted iLQR itera
 phi and 'cost x' the phi stages' final objective over their initial one (a fast stage that makes
 no progress is no win); 'budget x' the initialization's time over ``physics.time_budget``
 (target: at most 1.1) and the stages it cut. ``--set`` overrides any configuration field;
-``--seeds`` plans other scenes of a level, e.g. dense refrigerators under a short budget:
+``--seeds`` plans other scenes of a level, e.g. dense refrigerators with Sec. V's phi stages
+(off by default) under a short budget:
 
     python benchmarks/bench_planner.py --kind fridge --levels 20 --seeds 1 2 3 \
+        --set physics.iterations=30 --set physics.sphere_iterations=10 \
         --set physics.time_budget=60
 """
 

@@ -183,7 +183,7 @@ class PhysicsConfig:
     # the plan is the best in one phi of the baseline, pre- and post-processed paths, flag; ours
     select_in_phi: bool = True
     # select ranks paths that press on a box's top (path_press) after the rest, flag; ours
-    select_press: bool = True
+    select_press: bool = False
     # grasp heights also tried per angle (height_choice picks), of target height, unitless; ours
     grasp_heights: tuple[float, ...] = bounded((0.6, 0.7, 0.8, 0.9), gt=0.0, le=1.0)
     # approach angle offsets also tried at every grasp height (height_choice picks), rad; ours

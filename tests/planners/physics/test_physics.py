@@ -727,7 +727,7 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate, control
     config = load_config(None, ["physics.iterations=2", "physics.sphere_iterations=1",
                                 "physics.pre_iterations=2", "physics.post_iterations=2",
                                 "dynamics.workers=0", "dynamics.derivative_stride=4",
-                                f"physics.controls={controls}"])
+                                f"physics.controls={controls}", "physics.select_press=true"])
     (plan,) = plan_physics(scene, config, [fig5_candidate])
     assert plan.ok and plan.planner == "physics", plan.reason
     assert set(plan.timings) == {"height", "pre", "sphere", "full", "post", "select"}

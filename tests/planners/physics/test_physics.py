@@ -943,7 +943,8 @@ def test_select_press_ranks_pressing_paths_last(monkeypatch):
     monkeypatch.setattr(physics, "_path_objective", lambda d, o, z, q: {0.0: 1.0, 1.0: 2.0,
                                                                          2.0: 3.0}[q[0, 0]])
     presses = {"post": 0.03, "pre": 0.0004, "baseline": 0.0}
-    monkeypatch.setattr(physics, "_presses", lambda scene, paths, config: dict(presses))
+    monkeypatch.setattr(physics, "_presses",
+                        lambda scene, paths, config, geometry=None: dict(presses))
     paths = {name: np.full((3, 8), float(i)) for i, name in enumerate(("post", "pre", "baseline"))}
     on = Config()
     on = replace(on, physics=replace(on.physics, select_press=True))

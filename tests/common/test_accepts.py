@@ -117,8 +117,9 @@ def test_a_value_outside_a_field_s_range_is_refused_in_one_line(path, f, tp, cap
 
 
 @pytest.mark.parametrize("overrides, field, reason", [
-    (["physics.sphere_iterations=50"], "physics.sphere_iterations", "at most iterations (30)"),
-    (["physics.iterations=5"], "physics.sphere_iterations", "at most iterations"),
+    (["physics.sphere_iterations=50"], "physics.sphere_iterations", "at most iterations (0)"),
+    (["physics.iterations=30", "physics.sphere_iterations=40"], "physics.sphere_iterations",
+     "at most iterations (30)"),
     (["baseline.alpha_min=0.5", "baseline.alpha_max=0.2"], "baseline.alpha_max",
      "above alpha_min"),
     (["baseline.ik_min_distance=0.03"], "baseline.ik_min_distance", "below d_safe"),

@@ -58,7 +58,14 @@ def test_tiers_load_and_expand():
     assert counts["behaviours"] == 4 * 6 * 2 * 2  # scenes x angles x planners x configurations
     assert counts["probe"] == 24 * 4 * 2  # scenes x angles x planners
     assert counts["probe_half"] == 24 * 2 * 2
+    assert counts["heldout"] == 24 * 2 * 2
     assert counts["candidates"] == 4 * 6 * 15  # scenes x angles x configurations
+
+
+def test_heldout_tier_shares_no_scene_with_the_probe_tier():
+    probe, heldout = ({u.scene for u in expand(*load_spec(t))} for t in ("probe", "heldout"))
+    assert len(heldout) == 24 and not probe & heldout
+    assert heldout <= {s.name for s in scene_set("paper")}
 
 
 def test_probe_tier_draws_paper_scenes_at_four_levels_per_environment_robustly():

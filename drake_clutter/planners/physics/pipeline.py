@@ -433,9 +433,10 @@ class Budget:
             self.stopped.append(stage)
 
     def record(self, returned: str) -> dict:
-        """What the candidate's details keep: the budget, the time taken (s), whether it
-        was spent, the stages cut short and left out, and the path returned."""
-        return {"seconds": self.seconds, "elapsed": time.perf_counter() - self.start,
+        """What the candidate's details keep: the budget (s), the time taken ("wall_time",
+        s: an experiment store moves it to the unit's timings), whether it was spent, the
+        stages cut short and left out, and the path returned."""
+        return {"budget": self.seconds, "wall_time": time.perf_counter() - self.start,
                 "spent": bool(self.stopped or self.skipped), "stopped": list(self.stopped),
                 "skipped": list(self.skipped), "returned": returned}
 

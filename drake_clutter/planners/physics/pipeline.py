@@ -406,10 +406,6 @@ class Budget:
         """The time.perf_counter() value (s) at which the budget is spent; None: never."""
         return None if self.seconds is None else self.start + self.seconds
 
-    def spent(self) -> bool:
-        """True once the deadline has passed."""
-        return ilqr.past(self.deadline)
-
     def skip(self, stage: str, phi: bool = False) -> bool:
         """True (and ``stage`` recorded as left out) when the budget is spent, or, for a
         stage that builds a phi (``phi``), would be before its set-up and first iteration

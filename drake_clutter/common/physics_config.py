@@ -19,6 +19,16 @@ from drake_clutter.common.accepts import bounded
 class DynamicsConfig:
     """phi as iLQR's dynamics and its derivatives (Sec. V)."""
 
+    # phi's simulation engine ("drake": Drake's SAP; "mujoco": the paper's engine), choice; ours
+    engine: Literal["drake", "mujoco"] = "drake"
+    # longest time step of the MuJoCo phi (a knot is split into equal steps), s; MuJoCo's default
+    mujoco_time_step: float = bounded(0.002, gt=0.0)
+    # contact time constant of the MuJoCo phi (MJCF solref[0]), s; MuJoCo's default
+    mujoco_contact_time: float = bounded(0.02, gt=0.0)
+    # contact damping ratio of the MuJoCo phi (MJCF solref[1]), unitless; MuJoCo's default
+    mujoco_contact_damping: float = bounded(1.0, gt=0.0)
+    # armature of the MuJoCo phi's arm joints (contacts cannot move it), kg m^2 or kg; ours
+    mujoco_arm_armature: float = bounded(1.0e6, gt=0.0)
     # finite-difference step of phi's Jacobians, state units (m, rad, m/s); Sec. V
     fd_step: float = bounded(1e-6, gt=0.0)
     # finite-difference scheme ("forward" or "central"), choice; Sec. V
@@ -81,7 +91,14 @@ class DynamicsConfig:
         return [("derivative_method",
                  not (self.derivative_method == "autodiff" and self.contact_model == "point"),
                  "other than 'autodiff' with contact_model 'point' (no AutoDiffXd Box-Box "
-                 "queries)")]
+                 "queries)"),
+                ("derivative_method",
+                 not (self.derivative_method == "autodiff" and self.engine == "mujoco"),
+                 "other than 'autodiff' with engine 'mujoco' (its Jacobians are finite "
+                 "differences)"),
+                ("mujoco_contact_time", self.mujoco_contact_time >= 2 * self.mujoco_time_step,
+                 f"at least twice mujoco_time_step ({self.mujoco_time_step:g} s): MuJoCo "
+                 f"would raise a shorter one silently")]
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from drake_clutter.phi.autodiff import AutoDiffPhi
-from drake_clutter.phi.dynamics import ARM_NODE, Phi
+from drake_clutter.phi.dynamics import ARM_NODE, PhiBase
 from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, NU, StateLayout
 
 # ----------------------------------------------------------------------------- columns
@@ -67,7 +67,7 @@ def perturbed(layout: StateLayout, x, u, columns, step: float):
     return layout.retract(x, dx[:layout.ndx]), np.asarray(u, dtype=float) + dx[layout.ndx:]
 
 
-def group_differences(phi: Phi, x, u, nominal, groups, step: float, scheme: str) -> np.ndarray:
+def group_differences(phi: PhiBase, x, u, nominal, groups, step: float, scheme: str) -> np.ndarray:
     """Difference quotients (len(groups), ndx + 1 + n) of phi's output [x' (tangent), contact
     forces f] for each group of columns perturbed together: forward (phi(x + h e) (-)
     phi(x)) / h about ``nominal`` = (x', f) (None: phi's own step from (x, u)) or central
@@ -87,7 +87,7 @@ def group_differences(phi: Phi, x, u, nominal, groups, step: float, scheme: str)
     return out
 
 
-def dense_jacobians(phi: Phi, x, u, step: float | None = None, scheme: str | None = None,
+def dense_jacobians(phi: PhiBase, x, u, step: float | None = None, scheme: str | None = None,
                     forces: bool = False):
     """Brute force: every column perturbed alone; (A (ndx, ndx), B (ndx, nu)) in tangent
     coordinates, and with ``forces`` also the contact forces' (Fx (1 + n, ndx), Fu (1 + n,

@@ -55,7 +55,7 @@ from drake_clutter.phi.colouring import (
     node_output_rows,
     node_rows,
 )
-from drake_clutter.phi.dynamics import ARM_NODE, Phi, PhiSpec
+from drake_clutter.phi.dynamics import ARM_NODE, PhiSpec, build_phi
 from drake_clutter.phi.state import ARM_DIM, NU
 from drake_clutter.phi.workers import WorkerPool
 
@@ -105,9 +105,10 @@ def linearized_approximation(config: DynamicsConfig, world: WorldConfig) -> str:
 
 def derivative_spec(spec: PhiSpec) -> PhiSpec:
     """The phi whose Jacobians stand for ``spec``'s: ``spec`` itself, or its SAP copy when
-    ``linearize_approximation`` is "sap" and ``spec`` rolls out with another approximation."""
+    ``linearize_approximation`` is "sap" and ``spec`` rolls out with another approximation
+    (Drake's contact approximations: the MuJoCo phi is differentiated as it rolls out)."""
     approximation = linearized_approximation(spec.config, spec.world)
-    if approximation == spec.world.contact_approximation:
+    if approximation == spec.world.contact_approximation or spec.config.engine != "drake":
         return spec
     return replace(spec, world=replace(spec.world, contact_approximation=approximation))
 
@@ -129,7 +130,7 @@ class PhiDynamics:
         self.spec = spec
         self.config = spec.config
         self.layout = spec.layout
-        self.phi = Phi(spec)
+        self.phi = build_phi(spec)
         self.dspec = derivative_spec(spec)
         self._dphi = self.phi if self.dspec is spec else None  # built on first serial use
         self._own_pool = pool is None and self.config.workers > 0
@@ -324,7 +325,8 @@ class PhiDynamics:
     def _uses_autodiff(self, w: _KnotWork) -> bool:
         """Whether knot work ``w`` is differentiated by AutoDiffXd (``derivative_method``)."""
         method = self.config.derivative_method
-        if not w.groups or method == "fd" or self.config.contact_model == "point":
+        if (not w.groups or method == "fd" or self.config.contact_model == "point"
+                or self.config.engine != "drake"):
             return False
         return method == "autodiff" or len(w.groups) >= self.config.autodiff_min_groups
 
@@ -382,7 +384,7 @@ class PhiDynamics:
 
     def _serial(self, w: _KnotWork, h: float, scheme: str, autodiff: bool) -> np.ndarray:
         if self._dphi is None:
-            self._dphi = Phi(self.dspec)
+            self._dphi = build_phi(self.dspec)
         if not autodiff:
             return group_differences(self._dphi, w.x, w.u, self._nominal(w), w.groups, h, scheme)
         if self._autodiff is None:

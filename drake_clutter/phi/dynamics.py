@@ -178,13 +178,95 @@ def cap_box_speeds(values: np.ndarray, box_v: np.ndarray, config: DynamicsConfig
 # ----------------------------------------------------------------------------- phi
 
 
-class Phi:
-    """One phi world (plant + context built once) that steps knots and traces interactions."""
+class PhiBase:
+    """What every phi engine shares (`Phi` in Drake, `mujoco_phi.MujocoPhi`): the outputs of a
+    step, the settle and rollout built on it, and the failure count. An engine implements
+    ``_step(x, u, trace, forces, jam)`` -> (x', edges, f) as `Phi._step` documents."""
 
     def __init__(self, spec: PhiSpec):
         check_config(spec.config, section="dynamics")
         self.spec = spec
         self.layout = spec.layout
+        # N per node (the arm 0, then each kept box's weight)
+        self.weights = np.array([0.0, *(GRAVITY * spec.scene.box(n).mass
+                                        for n in self.layout.box_names)])
+        self._shelf_allowance = spec.config.shelf_force_allowance * self.weights
+        self.failures = 0
+        self.shelf_forces = np.full(self.num_forces, np.nan)  # of the last step_forces
+
+    @property
+    def num_forces(self) -> int:
+        """Length of the force vector: one entry per node (the arm, then each kept box)."""
+        return 1 + self.layout.num_boxes
+
+    def frozen_touched(self, edges) -> set[str]:
+        """Names of the frozen boxes that a set of interaction edges reaches."""
+        names = [name for name, _ in self.spec.frozen]
+        return {names[-n - 1] for edge in edges for n in edge if n < 0}
+
+    def _step(self, x, u, trace: bool, forces: bool,
+              jam: np.ndarray | None = None) -> tuple[np.ndarray, set, np.ndarray]:
+        raise NotImplementedError
+
+    def step(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """phi(x, u): one knot interval (see the module docstring). NaN state on failure."""
+        return self._step(x, u, trace=False, forces=False)[0]
+
+    def step_traced(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, set]:
+        """phi(x, u) and the interaction edges seen during it: pairs (a, b), a < b, of nodes
+        (ARM_NODE, box i + 1, frozen box j as -(j + 1)) that were in the engine's contact
+        problem at some sub-step (touching, or within its margin) or came within
+        ``interaction_margin`` at the start or the end of the knot. (A pair that comes closer
+        than a perturbation's reach, ~1e-5 m, in mid-knot without touching may be missed.)"""
+        return self._step(x, u, trace=True, forces=False)[:2]
+
+    def step_full(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, set, np.ndarray]:
+        """phi(x, u), its interaction edges (`step_traced`) and its contact forces
+        (`Phi.contact_forces`, shape (1 + n,), N)."""
+        return self._step(x, u, trace=True, forces=True)
+
+    def step_forces(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """phi(x, u) and its contact forces (see `Phi.contact_forces`), without tracing. After
+        it ``shelf_forces`` holds each node's summed |f| with the shelf over the knot, its
+        sub-steps' mean (N, shape (1 + n,); NaN after a failed step or one without forces):
+        the quantity Sec. III's kinematic failure reads in Bullet, a box's weight included."""
+        x_next, _, f = self._step(x, u, trace=False, forces=True)
+        return x_next, f
+
+    def step_jam(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """phi(x, u) and each kept box's jam measure over the knot (`phi.jam`: the arm's
+        commanded approach into it while a rigid world would not let it move, m, shape (n,);
+        NaN after a failed step)."""
+        jam = np.zeros(self.layout.num_boxes)
+        x_next = self._step(x, u, trace=False, forces=False, jam=jam)[0]
+        return x_next, jam if np.all(np.isfinite(x_next)) else jam * np.nan
+
+    def settle(self, x: np.ndarray, seconds: float | None = None) -> np.ndarray:
+        """x after the boxes rest ``seconds`` (default ``settle_time``) under the still arm:
+        a start state whose boxes are at rest in phi (resting poses from a scene are not
+        exactly phi's equilibrium)."""
+        seconds = self.spec.config.settle_time if seconds is None else seconds
+        hold = np.asarray(x[:ARM_DIM], dtype=float)
+        for _ in range(int(np.ceil(seconds / self.spec.knot_time - 1e-9))):
+            x = self.step(x, hold)
+        return x
+
+    def rollout(self, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
+        """States x_0..x_T (shape (T+1, nx)) of applying controls ``us`` (T, 8) from x0."""
+        us = np.atleast_2d(np.asarray(us, dtype=float))
+        xs = np.empty((len(us) + 1, self.layout.nx))
+        xs[0] = x0
+        for t, u in enumerate(us):
+            xs[t + 1] = self.step(xs[t], u)
+        return xs
+
+
+class Phi(PhiBase):
+    """One phi world in Drake (plant + context built once) that steps knots and traces
+    interactions."""
+
+    def __init__(self, spec: PhiSpec):
+        super().__init__(spec)
         world_config = replace(spec.world, time_step=spec.sim_time_step)
         self.world: World = build_dynamics_world(
             spec.scene, spec.variant, world_config, frozen_boxes=spec.frozen_poses(),
@@ -200,15 +282,9 @@ class Phi:
                                   for n in ROBOT_JOINTS])
         self._box_q, self._box_v = self._box_indices()
         self._nq = self.plant.num_positions()  # v starts here in the discrete state
-        # N per node (the arm 0, then each kept box's weight)
-        self.weights = np.array([0.0, *(GRAVITY * spec.scene.box(n).mass
-                                        for n in self.layout.box_names)])
-        self._shelf_allowance = spec.config.shelf_force_allowance * self.weights
         self._geometry_nodes = self._map_geometry_to_nodes()
         self._contact_port = self.plant.get_contact_results_output_port()
         self._jam_reader = None  # built on the first `step_jam`
-        self.failures = 0
-        self.shelf_forces = np.full(self.num_forces, np.nan)  # of the last step_forces
 
     # -- layout in the plant
 
@@ -242,11 +318,6 @@ class Phi:
             for g in plant.GetCollisionGeometriesForBody(self.world.box_body(name)):
                 nodes[g] = -(j + 1)
         return nodes
-
-    def frozen_touched(self, edges) -> set[str]:
-        """Names of the frozen boxes that a set of interaction edges reaches."""
-        names = [name for name, _ in self.spec.frozen]
-        return {names[-n - 1] for edge in edges for n in edge if n < 0}
 
     # -- state in and out
 
@@ -282,39 +353,6 @@ class Phi:
 
     # -- stepping
 
-    def step(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """phi(x, u): one knot interval (see the module docstring). NaN state on failure."""
-        return self._step(x, u, trace=False, forces=False)[0]
-
-    def step_traced(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, set]:
-        """phi(x, u) and the interaction edges seen during it: pairs (a, b), a < b, of nodes
-        (ARM_NODE, box i + 1, frozen box j as -(j + 1)) that were in SAP's contact problem at
-        some sub-step (touching, or for hydroelastic boxes within their margin) or came within
-        ``interaction_margin`` at the start or the end of the knot. (A pair that comes closer
-        than a perturbation's reach, ~1e-5 m, in mid-knot without touching is missed.)"""
-        return self._step(x, u, trace=True, forces=False)[:2]
-
-    def step_full(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, set, np.ndarray]:
-        """phi(x, u), its interaction edges (`step_traced`) and its contact forces
-        (`contact_forces`, shape (1 + n,), N)."""
-        return self._step(x, u, trace=True, forces=True)
-
-    def step_forces(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """phi(x, u) and its contact forces (see `contact_forces`), without tracing. After it
-        ``shelf_forces`` holds each node's summed |f| with the shelf over the knot, its
-        sub-steps' mean (N, shape (1 + n,); NaN after a failed step or one without forces):
-        the quantity Sec. III's kinematic failure reads in Bullet, a box's weight included."""
-        x_next, _, f = self._step(x, u, trace=False, forces=True)
-        return x_next, f
-
-    def step_jam(self, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """phi(x, u) and each kept box's jam measure over the knot (`phi.jam`: the arm's
-        commanded approach into it while a rigid world would not let it move, m, shape (n,);
-        NaN after a failed step)."""
-        jam = np.zeros(self.layout.num_boxes)
-        x_next = self._step(x, u, trace=False, forces=False, jam=jam)[0]
-        return x_next, jam if np.all(np.isfinite(x_next)) else jam * np.nan
-
     def _jam_approach(self, v_arm: np.ndarray, jam: np.ndarray) -> None:
         """Adds one sub-step's commanded approach into blocked boxes (m) to ``jam``."""
         if self._jam_reader is None:
@@ -325,11 +363,6 @@ class Phi:
         v[self._robot_v] = v_arm
         for box, speed in self._jam_reader.approach(self.context, v).items():
             jam[box] += max(speed, 0.0) * self.spec.sim_time_step
-
-    @property
-    def num_forces(self) -> int:
-        """Length of the force vector: one entry per node (the arm, then each kept box)."""
-        return 1 + self.layout.num_boxes
 
     def _step(self, x, u, trace: bool, forces: bool,
               jam: np.ndarray | None = None) -> tuple[np.ndarray, set, np.ndarray]:
@@ -437,21 +470,12 @@ class Phi:
                 edges.add((min(a, b), max(a, b)))
         return edges
 
-    def settle(self, x: np.ndarray, seconds: float | None = None) -> np.ndarray:
-        """x after the boxes rest ``seconds`` (default ``settle_time``) under the still arm:
-        a start state whose boxes are at rest in phi (resting poses from a scene are not
-        exactly phi's equilibrium)."""
-        seconds = self.spec.config.settle_time if seconds is None else seconds
-        hold = np.asarray(x[:ARM_DIM], dtype=float)
-        for _ in range(int(np.ceil(seconds / self.spec.knot_time - 1e-9))):
-            x = self.step(x, hold)
-        return x
 
-    def rollout(self, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
-        """States x_0..x_T (shape (T+1, nx)) of applying controls ``us`` (T, 8) from x0."""
-        us = np.atleast_2d(np.asarray(us, dtype=float))
-        xs = np.empty((len(us) + 1, self.layout.nx))
-        xs[0] = x0
-        for t, u in enumerate(us):
-            xs[t + 1] = self.step(xs[t], u)
-        return xs
+def build_phi(spec: PhiSpec) -> PhiBase:
+    """The phi of ``spec`` in its engine (``spec.config.engine``): `Phi` in Drake, or
+    `mujoco_phi.MujocoPhi` (needs the optional package ``mujoco``)."""
+    if spec.config.engine == "mujoco":
+        from drake_clutter.phi.mujoco_phi import MujocoPhi  # optional: imported on demand
+
+        return MujocoPhi(spec)
+    return Phi(spec)

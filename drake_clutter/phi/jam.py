@@ -117,18 +117,8 @@ class JamReader:
         (m/s, the largest over the actor's contacts with it; boxes not blocked are absent).
         ``v_commanded`` is the plant's generalized velocity with the actor's commanded joint
         velocities (zero elsewhere)."""
-        contacts = self.contacts(context)
-        out: dict = {}
-        for c in contacts:
-            if c.b != ACTOR or c.a in (None, ACTOR):
-                continue
-            push = c.normal  # from the actor into the box
-            if not blocked(c.a, push, contacts, (c.a,)):
-                continue
-            speed = float(self._point_velocity(context, c.geometry_b, c.point, v_commanded)
-                          @ push)
-            out[c.a] = max(out.get(c.a, 0.0), speed)
-        return out
+        return approach_speeds(self.contacts(context), lambda c: self._point_velocity(
+            context, c.geometry_b, c.point, v_commanded))
 
     def _point_velocity(self, context, geometry, point: np.ndarray,
                         v_commanded: np.ndarray) -> np.ndarray:
@@ -141,6 +131,23 @@ class JamReader:
             context, JacobianWrtVariable.kV, body.body_frame(), X_WB.inverse() @ point,
             plant.world_frame(), plant.world_frame())
         return J @ v_commanded
+
+
+def approach_speeds(contacts: list[Contact], point_velocity) -> dict:
+    """box index -> the actor's commanded approach speed into it while it is blocked (m/s,
+    the largest over the actor's contacts with it; boxes not blocked are absent), from a
+    step's ``contacts`` (both ways round) and ``point_velocity(contact)``: the W velocity of
+    the actor's material point at ``contact.point`` under the commanded joint velocities."""
+    out: dict = {}
+    for c in contacts:
+        if c.b != ACTOR or c.a in (None, ACTOR):
+            continue
+        push = c.normal  # from the actor into the box
+        if not blocked(c.a, push, contacts, (c.a,)):
+            continue
+        speed = float(point_velocity(c) @ push)
+        out[c.a] = max(out.get(c.a, 0.0), speed)
+    return out
 
 
 def _cone_generators(normal: np.ndarray, mu: float) -> np.ndarray:

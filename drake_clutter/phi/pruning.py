@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_clutter.common.config import DynamicsConfig, WorldConfig
-from drake_clutter.phi.dynamics import Phi, PhiSpec, initial_state, make_spec
+from drake_clutter.phi.dynamics import PhiSpec, build_phi, initial_state, make_spec
 from drake_clutter.phi.state import box_state_to_pose, scene_box_states
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import robot_positions
@@ -179,7 +179,7 @@ def rollouts_touch_frozen(spec: PhiSpec, arm_paths: tuple[np.ndarray, ...],
     """Frozen boxes that the arm or a kept box comes within ``interaction_margin`` of when
     phi plays any of ``arm_paths`` (knot rows) from the settled start: one phi for all of
     them, settled once per distinct start configuration."""
-    phi = Phi(spec)
+    phi = build_phi(spec)
     settled: list[tuple[np.ndarray, np.ndarray]] = []
     touched: set[str] = set()
     for path in arm_paths:

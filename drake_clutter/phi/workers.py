@@ -12,7 +12,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import group_autodiff, group_differences
-from drake_clutter.phi.dynamics import Phi, PhiSpec
+from drake_clutter.phi.dynamics import PhiSpec, build_phi
 
 _WORKER_PHIS: OrderedDict = OrderedDict()  # in each worker process: spec key -> [Phi,
 # AutoDiffPhi or None (built on first use)]
@@ -23,7 +23,7 @@ def _worker_phi(key: str, spec: PhiSpec, autodiff: bool = False):
     """This worker's Phi of ``spec`` (or its AutoDiffPhi), built once."""
     entry = _WORKER_PHIS.get(key)
     if entry is None:
-        entry = _WORKER_PHIS[key] = [Phi(spec), None]
+        entry = _WORKER_PHIS[key] = [build_phi(spec), None]
         while len(_WORKER_PHIS) > _WORKER_CACHE_SIZE:
             _WORKER_PHIS.popitem(last=False)
     _WORKER_PHIS.move_to_end(key)

@@ -243,6 +243,12 @@ def _geometry(variant: GeometryVariant) -> dict[str, tuple[Shape, ...]]:
     return geometry
 
 
+def collision_shapes(variant: str) -> dict[str, tuple[Shape, ...]]:
+    """Collision shapes per link (link frame, metres) of a geometry variant: what the URDF of
+    that variant carries, for a model built in another format (phi's MuJoCo model)."""
+    return _geometry(_check_variant(variant))
+
+
 def _principal_inertia(mass: float, body: Shape) -> Vec3:
     """Principal moments (kg m^2, link axes) of a uniform solid box or cylinder."""
     if body.kind == "box":

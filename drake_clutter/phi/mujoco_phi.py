@@ -1,0 +1,258 @@
+"""phi in MuJoCo (``dynamics.engine: mujoco``): the same model as the Drake `dynamics.Phi`
+in the paper's own engine (`mujoco_model`), with the same state, controls and outputs.
+
+One step advances one knot interval in `mujoco_model.substeps` MuJoCo steps. Before each
+step the arm's joints are set on the knot's straight joint-space line with its constant
+velocity (u - x_arm) / knot_time (kinematic; after the last step the arm's state is u exactly),
+the boxes start at their state. After each step every box's speed is capped as in the Drake
+phi (`dynamics.cap_box_speeds`). Every step starts from ``mj_resetData`` (no warm start kept
+between calls), so the same (x, u) gives the same bits.
+
+Outputs, as `dynamics.Phi`'s: the next state; the interaction edges (pairs of nodes whose
+geometries MuJoCo found within ``interaction_margin`` at some step of the knot, or at its end);
+the contact forces per node of Table I (each contact's |f|, normal and friction together,
+averaged over the knot's steps; a kept box's shelf contacts beyond ``shelf_force_allowance`` x
+its weight) and the shelf forces; the jam measure (`jam`), read from MuJoCo's contacts.
+
+A simulation failure (MuJoCo's bad-acceleration reset, or a state beyond
+``divergence_limit``) is not raised: the step returns a state full of NaN and counts it in
+``failures``.
+
+Frames: W. MuJoCo's free joint has (p_WB, quaternion wxyz) positions and (v_WB in W, w in the
+body frame) velocities; phi's state has w_WB in W: the two are converted here.
+"""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+
+from drake_clutter.phi.dynamics import ARM_NODE, PhiBase, PhiSpec, cap_box_speeds
+from drake_clutter.phi.jam import ACTOR, MIN_FORCE, Contact, approach_speeds
+from drake_clutter.phi.mujoco_model import (
+    ModelBox,
+    arm_actor,
+    box_geom,
+    model_xml,
+    scene_pair_friction,
+    substeps,
+)
+from drake_clutter.phi.state import ARM_DIM, scene_box_states
+from drake_clutter.trajectory import robot_positions
+
+STATIC = -(10 ** 9)  # node of the shelf's geometry (no interaction node)
+_BAD_ACCELERATION = int(mujoco.mjtWarning.mjWARN_BADQACC)
+
+
+def rotation_matrices(quat_wxyz: np.ndarray) -> np.ndarray:
+    """R (n, 3, 3) of unit quaternion rows (w, x, y, z)."""
+    w, x, y, z = np.asarray(quat_wxyz, dtype=float).T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+    ], axis=-2)
+
+
+def contact_magnitudes(model, data) -> np.ndarray:
+    """|f| (N) of each of ``data``'s contacts (normal and friction together; 0 for a
+    contact within the margin that does not act), decoded from MuJoCo's pyramidal cone forces
+    as ``mj_contactForce`` does, for all contacts at once."""
+    n = data.ncon
+    if n == 0:
+        return np.zeros(0)
+    address = data.contact.efc_address[:n]
+    active = address >= 0
+    rows = np.where(active, address, 0)[:, None] + np.arange(4)
+    f = data.efc_force[rows]
+    mu = data.contact.friction[:n, 0]
+    normal = f.sum(axis=1)
+    t1, t2 = mu * (f[:, 0] - f[:, 1]), mu * (f[:, 2] - f[:, 3])
+    return np.where(active, np.sqrt(normal ** 2 + t1 ** 2 + t2 ** 2), 0.0)
+
+
+def _jam_node(node: int):
+    """An interaction node as `jam` names it: ACTOR, kept box index, None (static)."""
+    if node == ARM_NODE:
+        return ACTOR
+    return node - 1 if node > ARM_NODE else None
+
+
+def jam_contacts(model, data, nodes: np.ndarray) -> list[Contact]:
+    """The data's contacts that carry a force (`jam.MIN_FORCE`), both ways round, as
+    `jam.Contact`s; ``nodes`` maps geometry ids to interaction nodes (ARM_NODE, box i + 1,
+    frozen boxes negative, STATIC)."""
+    magnitude = contact_magnitudes(model, data)
+    out = []
+    for i in np.flatnonzero(magnitude >= MIN_FORCE):
+        g1, g2 = (int(g) for g in data.contact.geom[i])
+        n1, n2 = _jam_node(int(nodes[g1])), _jam_node(int(nodes[g2]))
+        if n1 == n2:
+            continue
+        normal = data.contact.frame[i, :3].copy()  # from geom1 into geom2
+        point = data.contact.pos[i].copy()
+        mu = float(data.contact.friction[i, 0])
+        out.append(Contact(n2, n1, normal, point, mu, g1))
+        out.append(Contact(n1, n2, -normal, point, mu, g2))
+    return out
+
+
+def commanded_point_velocity(model, data, v_commanded: np.ndarray):
+    """contact -> the W velocity (m/s) of the material point at ``contact.point`` of the
+    body carrying ``contact.geometry_b`` under the generalized velocity ``v_commanded``."""
+    jacobian = np.zeros((3, model.nv))
+
+    def velocity(c: Contact) -> np.ndarray:
+        mujoco.mj_jac(model, data, jacobian, None, c.point, int(model.geom_bodyid[c.geometry_b]))
+        return jacobian @ v_commanded
+
+    return velocity
+
+
+class MujocoPhi(PhiBase):
+    """One phi model in MuJoCo (built once) that steps knots like `dynamics.Phi`."""
+
+    def __init__(self, spec: PhiSpec):
+        super().__init__(spec)
+        config, scene = spec.config, spec.scene
+        rest = scene_box_states(scene)
+        frozen = dict(spec.frozen)
+        boxes = [ModelBox(n, scene.box(n).size, scene.box(n).mass, tuple(rest[n][:7]), True)
+                 for n in self.layout.box_names]
+        boxes += [ModelBox(n, scene.box(n).size, scene.box(n).mass, frozen[n], False)
+                  for n, _ in spec.frozen]
+        actor = arm_actor(scene, spec.variant, config.mujoco_arm_armature)
+        self.xml = model_xml(scene.shelf, boxes, actor, scene_pair_friction(scene), config,
+                             spec.knot_time, spec.arm_passes)
+        self.model = mujoco.MjModel.from_xml_string(self.xml)
+        self.data = mujoco.MjData(self.model)
+        self.substeps = substeps(spec.knot_time, config)
+        m = self.model
+        self._arm_q = np.array([m.joint(j).qposadr[0] for j in actor.joints])
+        self._arm_v = np.array([m.joint(j).dofadr[0] for j in actor.joints])
+        joints = [m.body(box_geom(n)).jntadr[0] for n in self.layout.box_names]
+        self._box_q = np.array([m.jnt_qposadr[j] + np.arange(7) for j in joints],
+                               dtype=int).reshape(-1, 7)
+        self._box_v = np.array([m.jnt_dofadr[j] + np.arange(6) for j in joints],
+                               dtype=int).reshape(-1, 6)
+        self._cap_index = self._box_v[:, [3, 4, 5, 0, 1, 2]]  # (w, v) as cap_box_speeds reads
+        self._nodes = np.full(m.ngeom, STATIC, dtype=np.int64)
+        self._nodes[[m.geom(g).id for g in actor.geoms]] = ARM_NODE
+        for i, name in enumerate(self.layout.box_names):
+            self._nodes[m.geom(box_geom(name)).id] = i + 1
+        for j, (name, _) in enumerate(spec.frozen):
+            self._nodes[m.geom(box_geom(name)).id] = -(j + 1)
+
+    # -- state in and out
+
+    def _load(self, x: np.ndarray, q_arm: np.ndarray, v_arm: np.ndarray) -> None:
+        """Resets the data to x's boxes and the arm at ``q_arm`` moving at ``v_arm``."""
+        d = self.data
+        mujoco.mj_resetData(self.model, d)
+        boxes = self.layout.boxes(x)
+        if len(boxes):
+            quats = boxes[:, :4] / np.linalg.norm(boxes[:, :4], axis=1, keepdims=True)
+            d.qpos[self._box_q[:, :3]] = boxes[:, 4:7]
+            d.qpos[self._box_q[:, 3:]] = quats
+            d.qvel[self._box_v[:, :3]] = boxes[:, 10:13]
+            d.qvel[self._box_v[:, 3:]] = np.einsum("nji,nj->ni", rotation_matrices(quats),
+                                                   boxes[:, 7:10])  # w_B = R^T w_W
+        d.qpos[self._arm_q] = q_arm
+        d.qvel[self._arm_v] = v_arm
+
+    def _read(self, u: np.ndarray) -> np.ndarray:
+        """x now: the arm at u (kinematic), the kept boxes from the data."""
+        d = self.data
+        quats = d.qpos[self._box_q[:, 3:]]
+        w_world = np.einsum("nij,nj->ni", rotation_matrices(
+            quats / np.linalg.norm(quats, axis=1, keepdims=True)), d.qvel[self._box_v[:, 3:]])
+        boxes = np.concatenate([quats, d.qpos[self._box_q[:, :3]], w_world,
+                                d.qvel[self._box_v[:, :3]]], axis=1)
+        if len(boxes):
+            diverged = ~np.all(np.abs(boxes) <= self.spec.config.divergence_limit, axis=1)
+            boxes[diverged] = np.nan
+            boxes[:, :4] /= np.linalg.norm(boxes[:, :4], axis=1, keepdims=True)
+            boxes[:, :4] *= np.where(boxes[:, :1] < 0, -1.0, 1.0)
+        return self.layout.join(np.asarray(u, dtype=float), boxes)
+
+    # -- stepping
+
+    def _step(self, x, u, trace: bool, forces: bool,
+              jam: np.ndarray | None = None) -> tuple[np.ndarray, set, np.ndarray]:
+        f, shelf = np.zeros(self.num_forces), np.zeros(self.num_forces)
+        self.shelf_forces = shelf * np.nan
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
+            self.failures += 1
+            return np.full(self.layout.nx, np.nan), set(), f * np.nan
+        m, d, n = self.model, self.data, self.substeps
+        q_start, q_end = robot_positions(x[:ARM_DIM]), robot_positions(u)
+        v_arm = (q_end - q_start) / self.spec.knot_time
+        self._load(x, q_start, v_arm)
+        edges: set = set()
+        for k in range(n):
+            d.qpos[self._arm_q] = q_start + (q_end - q_start) * (k / n)
+            d.qvel[self._arm_v] = v_arm
+            mujoco.mj_step(m, d)
+            if trace:
+                edges |= self._edges()
+            if forces:
+                self._add_forces(f, shelf)
+            if jam is not None:
+                self._jam_approach(v_arm, jam)
+            d.qvel[:] = cap_box_speeds(d.qvel, self._cap_index, self.spec.config)
+        if trace:
+            d.qpos[self._arm_q] = q_end
+            mujoco.mj_kinematics(m, d)
+            mujoco.mj_collision(m, d)
+            edges |= self._edges()
+        x_next = self._read(u)
+        if d.warning[_BAD_ACCELERATION].number > 0 or not np.all(np.isfinite(x_next)):
+            self.failures += 1
+            return np.full(self.layout.nx, np.nan), edges, f * np.nan
+        if forces:
+            self.shelf_forces = shelf / n
+        return x_next, edges, f / n
+
+    def _edges(self) -> set:
+        """Node pairs of the data's contacts (within the pairs' margin)."""
+        n = self.data.ncon
+        if n == 0:
+            return set()
+        g = self.data.contact.geom[:n]
+        a, b = self._nodes[g[:, 0]], self._nodes[g[:, 1]]
+        keep = (a != STATIC) & (b != STATIC) & (a != b)
+        lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
+        return set(zip(lo.tolist(), hi.tolist(), strict=True))
+
+    def _add_forces(self, f: np.ndarray, shelf: np.ndarray) -> None:
+        """Adds one step's contact forces per node to ``f`` (as `dynamics.Phi.contact_forces`
+        counts them) and each node's whole |f| with the shelf to ``shelf``."""
+        n = self.data.ncon
+        if n == 0:
+            return
+        magnitude = contact_magnitudes(self.model, self.data)
+        g = self.data.contact.geom[:n]
+        a, b = self._nodes[g[:, 0]], self._nodes[g[:, 1]]
+        between = (a != STATIC) & (b != STATIC) & (a != b)
+        step = np.zeros(self.num_forces)
+        for mine in (a, b):
+            counted = between & (mine >= 0)
+            np.add.at(step, mine[counted], magnitude[counted])
+        on_shelf = np.zeros(self.num_forces)
+        for mine, other in ((a, b), (b, a)):
+            counted = (other == STATIC) & (mine > ARM_NODE)
+            np.add.at(on_shelf, mine[counted], magnitude[counted])
+        shelf += on_shelf
+        f += step + np.maximum(0.0, on_shelf - self._shelf_allowance)
+
+    # -- the jam measure
+
+    def _jam_approach(self, v_arm: np.ndarray, jam: np.ndarray) -> None:
+        """Adds one step's commanded approach into blocked boxes (m) to ``jam``."""
+        m, d = self.model, self.data
+        v = np.zeros(m.nv)
+        v[self._arm_v] = v_arm
+        speeds = approach_speeds(jam_contacts(m, d, self._nodes),
+                                 commanded_point_velocity(m, d, v))
+        for box, speed in speeds.items():
+            jam[box] += max(speed, 0.0) * m.opt.timestep

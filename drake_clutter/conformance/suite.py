@@ -2,7 +2,8 @@
 reference engine (MuJoCo at its defaults), quasi-static mechanics' misses, thrown boxes,
 squeeze forces and the time per case.
 
-Engines: "phi" (phi's Drake world under the given configuration), "bullet" (the judge's engine
+Engines: "phi" (phi's own model under the given configuration: its Drake world, or with
+``dynamics.engine: mujoco`` the MuJoCo phi's model), "bullet" (the judge's engine
 settings), "mujoco_default" and "mujoco_stiff" (`mujoco_engine.SETTINGS`).
 """
 
@@ -39,6 +40,13 @@ def mujoco_engine():
 
 def simulate(engine: str, scenario: Scenario, config: Config) -> Trace:
     """One engine's run of a scenario (a simulation failure is recorded in the trace)."""
+    if engine == "phi" and config.dynamics.engine == "mujoco":
+        try:
+            from drake_clutter.conformance import mujoco_phi_engine
+        except ImportError as error:
+            raise MissingMujoco("dynamics.engine 'mujoco' needs MuJoCo: pip install mujoco "
+                                "(it is in the dev extras)") from error
+        return mujoco_phi_engine.simulate(scenario, config)
     if engine == "phi":
         return drake_engine.simulate(scenario, config)
     if engine == "bullet":

@@ -13,9 +13,10 @@ The same model as the Drake phi, in the paper's engine:
 * every pair that may touch an explicit ``<pair>`` with its own Coulomb coefficient (automatic
   contacts are off), so no combination rule is involved: a kept box with the shelf, the actor,
   every other box; a frozen box with the actor. The actor never meets the shelf (as in the
-  Drake phi, whose c_static keeps the arm off it). Pairs detect within ``interaction_margin``
-  (MJCF margin) but act only when touching (gap = margin): phi reads the near pairs as
-  interaction edges without changing the physics.
+  Drake phi, whose c_static keeps the arm off it). The pairs' margin is 0: MuJoCo's margin
+  moves a contact's rest distance (a box sliding on a board with 1 mm margin and gap rides
+  1 mm above it, measured), so phi widens it only for its interaction queries
+  (`mujoco_phi.MujocoPhi`), never for a step.
 
 Settings are MuJoCo's defaults (Euler, pyramidal cones, 2 ms, solref 0.02 1), the contact
 suite's reference setting. Frames and units: W, metres, kilograms, seconds.
@@ -165,8 +166,7 @@ def _pairs(shelf: Shelf, boxes: Sequence[ModelBox], actor: Actor,
     """Every pair that may touch (see the module docstring)."""
     shelf_geoms = [shelf_geom(name) for name, _, _ in shelf_boxes(shelf)]
     settings = (f'condim="3" solref="{config.mujoco_contact_time!r} '
-                f'{config.mujoco_contact_damping!r}" margin="{config.interaction_margin!r}" '
-                f'gap="{config.interaction_margin!r}"')
+                f'{config.mujoco_contact_damping!r}"')
 
     def pair(g1: str, g2: str, mu: float) -> str:
         return (f"<pair geom1={quoteattr(g1)} geom2={quoteattr(g2)} friction=\"{mu!r} {mu!r} "

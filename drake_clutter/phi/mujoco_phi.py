@@ -9,7 +9,8 @@ phi (`dynamics.cap_box_speeds`). Every step starts from ``mj_resetData`` (no war
 between calls), so the same (x, u) gives the same bits.
 
 Outputs, as `dynamics.Phi`'s: the next state; the interaction edges (pairs of nodes whose
-geometries MuJoCo found within ``interaction_margin`` at some step of the knot, or at its end);
+geometries touch at some step of the knot, or lie within ``interaction_margin`` at its start
+or its end, as the Drake phi traces them);
 the contact forces per node of Table I (each contact's |f|, normal and friction together,
 averaged over the knot's steps; a kept box's shelf contacts beyond ``shelf_force_allowance`` x
 its weight) and the shelf forces; the jam measure (`jam`), read from MuJoCo's contacts.
@@ -63,6 +64,8 @@ def contact_magnitudes(model, data) -> np.ndarray:
         return np.zeros(0)
     address = data.contact.efc_address[:n]
     active = address >= 0
+    if not active.any():
+        return np.zeros(n)
     rows = np.where(active, address, 0)[:, None] + np.arange(4)
     f = data.efc_force[rows]
     mu = data.contact.friction[:n, 0]
@@ -188,7 +191,7 @@ class MujocoPhi(PhiBase):
         q_start, q_end = robot_positions(x[:ARM_DIM]), robot_positions(u)
         v_arm = (q_end - q_start) / self.spec.knot_time
         self._load(x, q_start, v_arm)
-        edges: set = set()
+        edges = self._near_edges() if trace else set()
         for k in range(n):
             d.qpos[self._arm_q] = q_start + (q_end - q_start) * (k / n)
             d.qvel[self._arm_v] = v_arm
@@ -200,12 +203,10 @@ class MujocoPhi(PhiBase):
             if jam is not None:
                 self._jam_approach(v_arm, jam)
             d.qvel[:] = cap_box_speeds(d.qvel, self._cap_index, self.spec.config)
+        x_next = self._read(u)
         if trace:
             d.qpos[self._arm_q] = q_end
-            mujoco.mj_kinematics(m, d)
-            mujoco.mj_collision(m, d)
-            edges |= self._edges()
-        x_next = self._read(u)
+            edges |= self._near_edges()
         if d.warning[_BAD_ACCELERATION].number > 0 or not np.all(np.isfinite(x_next)):
             self.failures += 1
             return np.full(self.layout.nx, np.nan), edges, f * np.nan
@@ -213,8 +214,21 @@ class MujocoPhi(PhiBase):
             self.shelf_forces = shelf / n
         return x_next, edges, f / n
 
+    def _near_edges(self) -> set:
+        """Node pairs within ``interaction_margin`` in the data's positions: a collision
+        query with the pairs' margin widened for it alone (module docstring of
+        `mujoco_model`)."""
+        m = self.model
+        m.pair_margin[:] = self.spec.config.interaction_margin
+        try:
+            mujoco.mj_kinematics(m, self.data)
+            mujoco.mj_collision(m, self.data)
+            return self._edges()
+        finally:
+            m.pair_margin[:] = 0.0
+
     def _edges(self) -> set:
-        """Node pairs of the data's contacts (within the pairs' margin)."""
+        """Node pairs of the data's contacts."""
         n = self.data.ncon
         if n == 0:
             return set()

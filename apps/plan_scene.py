@@ -38,6 +38,7 @@ import numpy as np
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS
+from drake_clutter.phi.mujoco_model import check_scene
 from drake_clutter.planners.registry import planner_names, run_planners
 from drake_clutter.planners.selection import selected_index
 from drake_clutter.robot.pr2 import VARIANTS
@@ -252,6 +253,8 @@ def main(argv=None) -> int:
         _check(args)
         config = with_iterations(load_config(args.config, args.overrides), args.iterations)
         scene = resolve_scene(args.scene)
+        if config.dynamics.engine == "mujoco":
+            check_scene(scene, args.scene)
         plans = plan_and_evaluate(scene, config, args.angles, args.planner, args.jobs)
         selected = selections(plans, config)
         print(outcome_table(plans, selected))

@@ -137,6 +137,14 @@ def _cmd_evaluate(args) -> int:
     return 0
 
 
+def _check_scene_for_engine(scene, config, file: str) -> None:
+    """SceneError where phi's engine cannot express the scene (MuJoCo's least friction, mass)."""
+    if config.dynamics.engine == "mujoco":
+        from drake_clutter.phi.mujoco_model import check_scene
+
+        check_scene(scene, file)
+
+
 def _cmd_plan(args) -> int:
     import dataclasses
 
@@ -153,6 +161,7 @@ def _cmd_plan(args) -> int:
 
     config = _load_config(args)
     scene = resolve_scene(args.scene)
+    _check_scene_for_engine(scene, config, args.scene)
     if args.angles is not None:
         if args.angles < 1:
             raise InputError("<command line>", "--angles", f"must be at least 1, got {args.angles}")

@@ -13,6 +13,7 @@ errors), and ``overrides`` are ``section.field=value`` strings from the command 
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -429,10 +430,16 @@ def config_to_data(config: Config) -> dict:
 def load_config(path: str | Path | None = None, overrides: list[str] | tuple = ()) -> Config:
     """Defaults, then the YAML file at ``path`` (if any), then ``key=value`` overrides.
 
-    Raises ConfigError naming the file (or '<command line>'), the field and the reason.
+    Raises ConfigError naming the file (or '<command line>'), the field and the reason; also
+    where ``dynamics.engine`` names an engine whose package is not installed.
     """
     user = None if path is None else read_yaml_file(path, error_cls=ConfigError)
-    return config_from_data(user, overrides, path)
+    config = config_from_data(user, overrides, path)
+    if config.dynamics.engine == "mujoco" and importlib.util.find_spec("mujoco") is None:
+        raise ConfigError(path or "<command line>", "dynamics.engine",
+                          "'mujoco' needs the package 'mujoco', which is not installed "
+                          "(pip install mujoco)")
+    return config
 
 
 def config_from_data(user, overrides: list[str] | tuple = (),

@@ -33,13 +33,15 @@ import numpy as np
 
 from drake_clutter.common.physics_config import DynamicsConfig
 from drake_clutter.robot import pr2
-from drake_clutter.scene.scenes import Scene, Shelf
+from drake_clutter.scene.scenes import Scene, SceneError, Shelf
 from drake_clutter.scene.shelf import SHELF_FRICTION, shelf_boxes
 
 BOARD = "board"  # pair name of the shelf (all its parts)
 ACTOR = "actor"  # pair name of the arm or the suite's capsule
 TORSIONAL_FRICTION = 0.005  # MJCF friction[1] (unused with condim 3): MuJoCo's default
 ROLLING_FRICTION = 0.0001  # MJCF friction[2:4] (unused with condim 3): MuJoCo's default
+MIN_FRICTION = 1e-5  # MuJoCo's mjMINMU: it raises a smaller pair coefficient to this
+MIN_MASS = 1e-15  # kg, MuJoCo's mjMINVAL: the least mass (and inertia) of a moving body
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
@@ -211,6 +213,24 @@ def model_xml(shelf: Shelf, boxes: Sequence[ModelBox], actor: Actor,
 def substeps(knot_time: float, config: DynamicsConfig) -> int:
     """MuJoCo steps per knot: the fewest equal steps no longer than ``mujoco_time_step``."""
     return max(1, math.ceil(knot_time / config.mujoco_time_step - 1e-9))
+
+
+def check_scene(scene: Scene, file: str) -> None:
+    """Raises `scenes.SceneError` naming ``file``, the field and the reason where the MuJoCo
+    phi cannot realise the scene exactly: a pair coefficient below MuJoCo's least (it would
+    raise it silently) or a box lighter than its least mass."""
+    pair = scene_pair_friction(scene)
+    for i, box in enumerate(scene.boxes):
+        mus = [pair(BOARD, box.name)] + [pair(other.name, box.name) for other in scene.boxes
+                                         if other is not box]
+        if min(mus) < MIN_FRICTION:
+            raise SceneError(file, f"boxes[{i}].friction",
+                             f"{box.friction:g} gives a pair coefficient {min(mus):g}, below "
+                             f"MuJoCo's least {MIN_FRICTION:g} (dynamics.engine 'mujoco')")
+        if box.mass < MIN_MASS:
+            raise SceneError(file, f"boxes[{i}].density",
+                             f"a mass of {box.mass:g} kg is below MuJoCo's least {MIN_MASS:g} kg "
+                             f"(dynamics.engine 'mujoco')")
 
 
 def scene_pair_friction(scene: Scene) -> Callable[[str, str], float]:

@@ -72,7 +72,7 @@ class _Run:
         self.nodes = np.full(m.ngeom, STATIC, dtype=np.int64)
         self.nodes[[m.geom(g).id for g in actor.geoms]] = ARM_NODE
         for i, b in enumerate(scenario.boxes):
-            self.nodes[m.geom(box_geom(b.name)).id] = i + 1
+            self.nodes[m.geom_bodyid == m.body(box_geom(b.name)).id] = i + 1
             self.data.qvel[self.box_v[i, :3]] = b.velocity
         self.approach: list[np.ndarray] = []  # per step, per box: m into blocked boxes
         mujoco.mj_forward(m, self.data)

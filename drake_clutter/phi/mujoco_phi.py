@@ -141,8 +141,8 @@ class MujocoPhi(PhiBase):
         self._cap_index = self._box_v[:, [3, 4, 5, 0, 1, 2]]  # (w, v) as cap_box_speeds reads
         self._nodes = np.full(m.ngeom, STATIC, dtype=np.int64)
         self._nodes[[m.geom(g).id for g in actor.geoms]] = ARM_NODE
-        for i, name in enumerate(self.layout.box_names):
-            self._nodes[m.geom(box_geom(name)).id] = i + 1
+        for i, name in enumerate(self.layout.box_names):  # the box and its edge spheres
+            self._nodes[m.geom_bodyid == m.body(box_geom(name)).id] = i + 1
         for j, (name, _) in enumerate(spec.frozen):
             self._nodes[m.geom(box_geom(name)).id] = -(j + 1)
 

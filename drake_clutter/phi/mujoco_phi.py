@@ -247,15 +247,15 @@ class MujocoPhi(PhiBase):
         magnitude = contact_magnitudes(self.model, self.data)
         g = self.data.contact.geom[:n]
         a, b = self._nodes[g[:, 0]], self._nodes[g[:, 1]]
+        nf = self.num_forces
         between = (a != STATIC) & (b != STATIC) & (a != b)
-        step = np.zeros(self.num_forces)
-        for mine in (a, b):
-            counted = between & (mine >= 0)
-            np.add.at(step, mine[counted], magnitude[counted])
-        on_shelf = np.zeros(self.num_forces)
+        step = np.zeros(nf)
+        on_shelf = np.zeros(nf)
         for mine, other in ((a, b), (b, a)):
+            counted = between & (mine >= 0)
+            step += np.bincount(mine[counted], magnitude[counted], minlength=nf)
             counted = (other == STATIC) & (mine > ARM_NODE)
-            np.add.at(on_shelf, mine[counted], magnitude[counted])
+            on_shelf += np.bincount(mine[counted], magnitude[counted], minlength=nf)
         shelf += on_shelf
         f += step + np.maximum(0.0, on_shelf - self._shelf_allowance)
 

@@ -39,6 +39,8 @@ class DynamicsConfig:
     mujoco_solver_tolerance: float = bounded(1e-14, ge=0.0)
     # MuJoCo phi's line-search tolerance (MuJoCo's default 0.01), unitless; ours
     mujoco_line_search_tolerance: float = bounded(1e-10, ge=0.0)
+    # MuJoCo steps between phi's readings (forces, contacts, jam, speed cap; 10 = 20 ms), count; ours
+    mujoco_sample_steps: int = bounded(10, ge=1)
     # armature of the MuJoCo phi's arm joints (contacts cannot move it), kg m^2 or kg; ours
     mujoco_arm_armature: float = bounded(1.0e6, gt=0.0)
     # finite-difference step of phi's Jacobians, state units (m, rad, m/s); Sec. V

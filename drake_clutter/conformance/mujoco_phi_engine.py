@@ -1,8 +1,8 @@
 """A scenario in the MuJoCo phi's own model (``dynamics.engine: mujoco``): the model
 `phi.mujoco_model.model_xml` builds (its settings, pairs with the scenario's coefficients, the
 suite's capsule as the kinematic actor on slide joints), stepped as `phi.mujoco_phi.MujocoPhi`
-steps a knot: the actor set on its path with its velocity before every step, phi's box speed
-cap after each, the jam measure read from MuJoCo's contacts.
+steps a knot: runs of ``mujoco_sample_steps`` steps, the actor set on its path with its
+velocity before every run, phi's box speed cap and the jam measure's reading after each.
 
 Frames and units: W, metres, seconds, newtons.
 """
@@ -84,22 +84,23 @@ class _Run:
             return np.zeros(3)
         return np.array([pusher.x_at(t) - pusher.start[0], 0.0, 0.0])
 
-    def step(self, t: float) -> np.ndarray:
-        """One step from time t (the actor on its path, moving to where it is at t + dt);
-        returns each box's summed |f| with the shelf in that step (N)."""
+    def step(self, t: float, steps: int) -> np.ndarray:
+        """One run of ``steps`` steps from time t (the actor set on its path, moving to
+        where it is at the run's end); returns each box's summed |f| with the shelf at the
+        run's last step (N)."""
         m, d = self.model, self.data
-        q, q_next = self._actor_at(t), self._actor_at(t + self.dt)
-        v = (q_next - q) / self.dt
+        q, q_next = self._actor_at(t), self._actor_at(t + steps * self.dt)
+        v = (q_next - q) / (steps * self.dt)
         d.qpos[self.actor_q] = q
         d.qvel[self.actor_v] = v
-        mujoco.mj_step(m, d)
+        mujoco.mj_step(m, d, steps)
         v_commanded = np.zeros(m.nv)
         v_commanded[self.actor_v] = v
         approach = np.zeros(len(self.bodies))
         speeds = approach_speeds(jam_contacts(m, d, self.nodes),
                                  commanded_point_velocity(m, d, v_commanded))
         for box, speed in speeds.items():
-            approach[box] = max(speed, 0.0) * self.dt
+            approach[box] = max(speed, 0.0) * self.dt * steps
         self.approach.append(approach)
         d.qvel[:] = cap_box_speeds(d.qvel, self.box_v[:, [3, 4, 5, 0, 1, 2]],
                                    self.config.dynamics)
@@ -120,9 +121,9 @@ class _Run:
         return f
 
     def jam(self) -> np.ndarray:
-        """The jam measure per box (m): the largest sum of the approach over any run of one
-        knot's steps (as the Drake harness reads it)."""
-        n = self.knot_steps
+        """The jam measure per box (m): the largest sum of the approach over one knot's runs
+        in a row (as the Drake harness reads it)."""
+        n = max(1, self.knot_steps // self.config.dynamics.mujoco_sample_steps)
         if not self.approach:
             return np.zeros(len(self.bodies))
         steps = np.array(self.approach)
@@ -142,21 +143,22 @@ class _Run:
 
 def simulate(scenario: Scenario, config: Config) -> Trace:
     """Runs ``scenario`` in the MuJoCo phi's model (``config.dynamics``, its step from
-    ``config.baseline.knot_time``); samples every step. A failed step ends the trace with its
+    ``config.baseline.knot_time``); samples after every run of ``mujoco_sample_steps``. A failed step ends the trace with its
     failure named."""
     started = time.perf_counter()
     run = _Run(scenario, config)
+    chunk = config.dynamics.mujoco_sample_steps
     steps = int(np.ceil(scenario.duration / run.dt - 1e-9))
     p0, R0 = run.sample()
     times, positions, rotations, forces = [0.0], [p0], [R0], []
     failure = ""
-    for k in range(steps):
-        forces.append(run.step(k * run.dt))
+    for k in range(0, steps, chunk):
+        forces.append(run.step(k * run.dt, min(chunk, steps - k)))
         p, R = run.sample()
         if run.failed() or not np.all(np.isfinite(p)):
             failure = f"MuJoCo step {k}: bad acceleration or non-finite box state"
             break
-        times.append((k + 1) * run.dt)
+        times.append(min(k + chunk, steps) * run.dt)
         positions.append(p)
         rotations.append(R)
     forces = [forces[0] if forces else np.zeros(len(scenario.boxes))] + forces

@@ -1,19 +1,27 @@
 """phi in MuJoCo (``dynamics.engine: mujoco``): the same model as the Drake `dynamics.Phi`
 in the paper's own engine (`mujoco_model`), with the same state, controls and outputs.
 
-One step advances one knot interval in `mujoco_model.substeps` MuJoCo steps. Before each
-step the arm's joints are set on the knot's straight joint-space line with its constant
-velocity (u - x_arm) / knot_time (kinematic; after the last step the arm's state is u exactly),
-the boxes start at their state. After each step every box's speed is capped as in the Drake
-phi (`dynamics.cap_box_speeds`). Every step starts from ``mj_resetData`` (no warm start kept
-between calls), so the same (x, u) gives the same bits.
+One step advances one knot interval in `mujoco_model.substeps` MuJoCo steps, run in C in
+runs of ``mujoco_sample_steps`` (20 ms by default, the Drake phi's sub-step). Before each run
+the arm's joints are set on the knot's straight joint-space line with its constant velocity
+(u - x_arm) / knot_time; their large armature keeps them on it within the run (kinematic; after
+the last step the arm's state is u exactly); the boxes start at their state. After each run
+phi reads the contacts of its last step (forces, edges, jam, each standing for the run's
+steps) and caps every box's speed as the Drake phi does (`dynamics.cap_box_speeds`). Every
+knot starts from ``mj_resetData`` (no warm start kept between calls), so the same (x, u)
+gives the same bits.
 
 Outputs, as `dynamics.Phi`'s: the next state; the interaction edges (pairs of nodes whose
-geometries touch at some step of the knot, or lie within ``interaction_margin`` at its start
-or its end, as the Drake phi traces them);
-the contact forces per node of Table I (each contact's |f|, normal and friction together,
-averaged over the knot's steps; a kept box's shelf contacts beyond ``shelf_force_allowance`` x
-its weight) and the shelf forces; the jam measure (`jam`), read from MuJoCo's contacts.
+geometries touch at the end of a run, or lie within ``interaction_margin`` at the knot's start
+or its end, as the Drake phi traces them at its sub-steps); the contact forces per node of
+Table I (each contact's |f|, normal and friction together, averaged over the knot's runs; a
+kept box's shelf contacts beyond ``shelf_force_allowance`` x its weight) and the shelf forces;
+the jam measure (`jam`), read from MuJoCo's contacts.
+
+Contact: MuJoCo's soft contact with an impedance that starts near zero at touch
+(``mujoco_impedance_min``) and a solver run to ``mujoco_solver_tolerance``: with MuJoCo's
+defaults (impedance 0.9 at touch, tolerance 1e-8) phi jumps where a contact begins or the
+solver stops early, and its finite differences are noise (docs/phi.md).
 
 A simulation failure (MuJoCo's bad-acceleration reset, or a state beyond
 ``divergence_limit``) is not raised: the step returns a state full of NaN and counts it in
@@ -192,16 +200,18 @@ class MujocoPhi(PhiBase):
         v_arm = (q_end - q_start) / self.spec.knot_time
         self._load(x, q_start, v_arm)
         edges = self._near_edges() if trace else set()
-        for k in range(n):
+        chunk = self.spec.config.mujoco_sample_steps
+        for k in range(0, n, chunk):
+            steps = min(chunk, n - k)
             d.qpos[self._arm_q] = q_start + (q_end - q_start) * (k / n)
             d.qvel[self._arm_v] = v_arm
-            mujoco.mj_step(m, d)
+            mujoco.mj_step(m, d, steps)
             if trace:
                 edges |= self._edges()
             if forces:
-                self._add_forces(f, shelf)
+                self._add_forces(f, shelf, steps)
             if jam is not None:
-                self._jam_approach(v_arm, jam)
+                self._jam_approach(v_arm, jam, steps)
             d.qvel[:] = cap_box_speeds(d.qvel, self._cap_index, self.spec.config)
         x_next = self._read(u)
         if trace:
@@ -238,9 +248,10 @@ class MujocoPhi(PhiBase):
         lo, hi = np.minimum(a[keep], b[keep]), np.maximum(a[keep], b[keep])
         return set(zip(lo.tolist(), hi.tolist(), strict=True))
 
-    def _add_forces(self, f: np.ndarray, shelf: np.ndarray) -> None:
-        """Adds one step's contact forces per node to ``f`` (as `dynamics.Phi.contact_forces`
-        counts them) and each node's whole |f| with the shelf to ``shelf``."""
+    def _add_forces(self, f: np.ndarray, shelf: np.ndarray, steps: int) -> None:
+        """Adds the last step's contact forces per node, times ``steps`` (the steps it stands
+        for), to ``f`` (as `dynamics.Phi.contact_forces` counts them) and each node's whole |f|
+        with the shelf to ``shelf``."""
         n = self.data.ncon
         if n == 0:
             return
@@ -256,17 +267,18 @@ class MujocoPhi(PhiBase):
             step += np.bincount(mine[counted], magnitude[counted], minlength=nf)
             counted = (other == STATIC) & (mine > ARM_NODE)
             on_shelf += np.bincount(mine[counted], magnitude[counted], minlength=nf)
-        shelf += on_shelf
-        f += step + np.maximum(0.0, on_shelf - self._shelf_allowance)
+        shelf += steps * on_shelf
+        f += steps * (step + np.maximum(0.0, on_shelf - self._shelf_allowance))
 
     # -- the jam measure
 
-    def _jam_approach(self, v_arm: np.ndarray, jam: np.ndarray) -> None:
-        """Adds one step's commanded approach into blocked boxes (m) to ``jam``."""
+    def _jam_approach(self, v_arm: np.ndarray, jam: np.ndarray, steps: int) -> None:
+        """Adds the commanded approach into the boxes blocked at the last step, over ``steps``
+        steps (m), to ``jam``."""
         m, d = self.model, self.data
         v = np.zeros(m.nv)
         v[self._arm_v] = v_arm
         speeds = approach_speeds(jam_contacts(m, d, self._nodes),
                                  commanded_point_velocity(m, d, v))
         for box, speed in speeds.items():
-            jam[box] += max(speed, 0.0) * m.opt.timestep
+            jam[box] += max(speed, 0.0) * m.opt.timestep * steps

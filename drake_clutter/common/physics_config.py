@@ -33,13 +33,13 @@ class DynamicsConfig:
     mujoco_impedance_max: float = bounded(0.95, ge=1e-4, lt=1.0)
     # penetration over which the impedance rises (MJCF solimp[2]), m; ours
     mujoco_impedance_width: float = bounded(0.0005, gt=0.0)
-    # how a box meets the shelf in the MuJoCo phi ("box"; "edges": spheres on its edges), choice; ours
+    # how a box meets the shelf in the MuJoCo phi ("box"; "edges": edge spheres), choice; ours
     mujoco_shelf_contact: Literal["box", "edges"] = "box"
     # MuJoCo phi's solver tolerance (MuJoCo's 1e-8 stops early: steps jump), unitless; ours
     mujoco_solver_tolerance: float = bounded(1e-14, ge=0.0)
     # MuJoCo phi's line-search tolerance (MuJoCo's default 0.01), unitless; ours
     mujoco_line_search_tolerance: float = bounded(1e-10, ge=0.0)
-    # MuJoCo steps between phi's readings (forces, contacts, jam, speed cap; 10 = 20 ms), count; ours
+    # MuJoCo steps between phi's readings (forces, contacts, jam, speed cap), count; ours
     mujoco_sample_steps: int = bounded(10, ge=1)
     # armature of the MuJoCo phi's arm joints (contacts cannot move it), kg m^2 or kg; ours
     mujoco_arm_armature: float = bounded(1.0e6, gt=0.0)

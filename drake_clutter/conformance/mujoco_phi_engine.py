@@ -143,8 +143,8 @@ class _Run:
 
 def simulate(scenario: Scenario, config: Config) -> Trace:
     """Runs ``scenario`` in the MuJoCo phi's model (``config.dynamics``, its step from
-    ``config.baseline.knot_time``); samples after every run of ``mujoco_sample_steps``. A failed step ends the trace with its
-    failure named."""
+    ``config.baseline.knot_time``); samples after every run of ``mujoco_sample_steps``
+    steps. A failed step ends the trace with its failure named."""
     started = time.perf_counter()
     run = _Run(scenario, config)
     chunk = config.dynamics.mujoco_sample_steps

@@ -253,11 +253,12 @@ def check_scene(scene: Scene, file: str) -> None:
     raise it silently) or a box lighter than its least mass."""
     pair = scene_pair_friction(scene)
     for i, box in enumerate(scene.boxes):
-        mus = [pair(BOARD, box.name)] + [pair(other.name, box.name) for other in scene.boxes
-                                         if other is not box]
-        if min(mus) < MIN_FRICTION:
+        others = [pair(other.name, box.name) for other in scene.boxes
+                  if other is not box and other.friction >= box.friction]
+        lowest = min([pair(BOARD, box.name), *others])
+        if lowest < MIN_FRICTION:  # blamed on the box with the smaller coefficient
             raise SceneError(file, f"boxes[{i}].friction",
-                             f"{box.friction:g} gives a pair coefficient {min(mus):g}, below "
+                             f"{box.friction:g} gives a pair coefficient {lowest:g}, below "
                              f"MuJoCo's least {MIN_FRICTION:g} (dynamics.engine 'mujoco')")
         if box.mass < MIN_MASS:
             raise SceneError(file, f"boxes[{i}].density",

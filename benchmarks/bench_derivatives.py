@@ -13,6 +13,8 @@ scene: its per-knot cost is (ndx + nu + 1) x the measured full-scene step time a
 ``--compare FIELD=VALUE`` (repeatable) runs every level a second time with those overrides on
 top of the configuration, right after the first, so old and new phi are timed in the same run;
 ``--no-brute-force`` leaves the brute-force columns out (they take minutes per level).
+Both phi engines in one run: ``--compare dynamics.engine=mujoco`` (the rows labelled
+"compare" are the MuJoCo phi's).
 
     python benchmarks/bench_derivatives.py [--levels 1 5 10] [--set dynamics.workers=2] [--validate]
         [--compare dynamics.contact_model=edges] [--no-brute-force]
@@ -33,7 +35,7 @@ from drake_clutter.common.config import load_config
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import dense_jacobians
 from drake_clutter.phi.derivatives import PhiDynamics
-from drake_clutter.phi.dynamics import ARM_NODE, Phi, initial_state, make_spec
+from drake_clutter.phi.dynamics import ARM_NODE, build_phi, initial_state, make_spec
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import NU, scene_box_states
 from drake_clutter.phi.workers import WorkerPool
@@ -51,7 +53,7 @@ def _brute_force(scene, path, config, world, knot_time):
     """Full-scene phi: per-knot step times, and one real dense Jacobian (middle knot)."""
     spec = make_spec(scene, [b.name for b in scene.boxes], knot_time=knot_time, config=config,
                      world=world)
-    phi = Phi(spec)
+    phi = build_phi(spec)
     x = phi.settle(initial_state(spec.layout, path[0], scene_box_states(scene)))
     xs, times = [x], []
     for u in path[1:]:

@@ -17,7 +17,9 @@ phi and 'cost x' the phi stages' final objective over their initial one (a fast 
 no progress is no win); 'budget x' the initialization's time over ``physics.time_budget``
 (target: at most 1.1) and the stages it cut. ``--set`` overrides any configuration field;
 ``--seeds`` plans other scenes of a level, e.g. dense refrigerators with Sec. V's phi stages
-(off by default) under a short budget:
+(off by default) under a short budget. ``--engines drake mujoco`` plans every scene with each
+phi engine in turn (``dynamics.engine``), in the same run; 'x first' is the initialization's
+time over the first engine's on the same scene:
 
     python benchmarks/bench_planner.py --kind fridge --levels 20 --seeds 1 2 3 \
         --set physics.iterations=30 --set physics.sphere_iterations=10 \
@@ -33,7 +35,7 @@ import time
 import numpy as np
 
 from drake_clutter.common.config import load_config
-from drake_clutter.phi.dynamics import Phi, initial_state
+from drake_clutter.phi.dynamics import build_phi, initial_state
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.phi.workers import WorkerPool
@@ -41,13 +43,15 @@ from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.physics.pipeline import optimise_candidate
 from drake_clutter.scene.generators import generate_scene, scene_set
 
+nan = float("nan")
+
 
 def phi_step_seconds(scene, candidate, config, repeats: int = 5) -> float:
     """Mean seconds of one phi step along the candidate's first knots (the reference)."""
     q = candidate.trajectory.q
     spec, _ = make_pruned_spec(scene, q, None, config.baseline.knot_time, config.dynamics,
                                config.world)
-    phi = Phi(spec)
+    phi = build_phi(spec)
     x = initial_state(spec.layout, q[0], scene_box_states(scene))
     tic = time.perf_counter()
     for u in q[1:1 + repeats]:
@@ -75,12 +79,15 @@ def budget_column(plan, total: float, config) -> str:
     return f"{total / budget:8.2f}" + (f" (cut: {cut})" if cut else "")
 
 
-def bench(kind: str, level: int, config, angles: int, pool, seed: int | None = None) -> str:
+def bench(kind: str, level: int, config, angles: int, pool, seed: int | None = None,
+          first: float | None = None) -> tuple[str, float]:
+    """One row (its text, the initialization's seconds); ``first`` is another engine's
+    seconds on the same scene (the 'x first' column)."""
     scene = first_scene(kind, level, config, seed)
     baseline = dataclasses.replace(config.baseline, num_angles=angles)
     usable = [c for c in plan_baseline(scene, baseline) if c.ok]
     if not usable:
-        return f"{kind:9} {level:5d}  no usable baseline candidate in {angles} angles"
+        return f"{kind:9} {level:5d}  no usable baseline candidate in {angles} angles", nan
     candidate = usable[0]
     reference = phi_step_seconds(scene, candidate, config)
     tic = time.perf_counter()
@@ -94,10 +101,12 @@ def bench(kind: str, level: int, config, angles: int, pool, seed: int | None = N
     # The phi stages' objective at the end over the start: a fast stage that stalls is no win.
     ratio = (phi[-1]["cost_history"][-1] / max(phi[0]["cost_history"][0], 1e-12) if phi
              else float("nan"))
-    return (f"{kind:9} {level:5d} {len(kept):5d} {total:8.1f} {t.get('pre', 0):6.1f} "
+    relative = total / first if first else 1.0
+    return (f"{config.dynamics.engine:6} {kind:9} {level:5d} {len(kept):5d} {total:8.1f} "
+            f"{relative:7.2f} {t.get('pre', 0):6.1f} "
             f"{t.get('sphere', 0):7.1f} {t.get('full', 0):7.1f} {t.get('post', 0):6.1f} "
             f"{reference * 1000:8.1f} {total / reference:9.0f} {iterations:4d} {ratio:7.3f} "
-            f"{budget_column(plan, total, config)}  {plan.status} {plan.reason}")
+            f"{budget_column(plan, total, config)}  {plan.status} {plan.reason}"), total
 
 
 def main() -> None:
@@ -110,13 +119,18 @@ def main() -> None:
                         help="scene seeds per level (default: the 'paper' set's first)")
     parser.add_argument("--set", dest="overrides", action="append", default=[],
                         metavar="KEY=VALUE")
+    parser.add_argument("--engines", nargs="*", choices=("drake", "mujoco"),
+                        help="phi engines to plan each scene with (default: as configured)")
     args = parser.parse_args()
     config = load_config(None, args.overrides)
+    configs = [load_config(None, [*args.overrides, f"dynamics.engine={e}"])
+               for e in args.engines or [config.dynamics.engine]]
     kinds = ("bookshelf", "fridge") if args.kind == "both" else (args.kind,)
     print(f"iterations {config.physics.iterations} (sphere {config.physics.sphere_iterations}),"
           f" derivative_stride {config.dynamics.derivative_stride}, workers "
           f"{config.dynamics.workers}")
-    print(f"{'kind':9} {'boxes':>5} {'kept':>5} {'init s':>8} {'pre s':>6} {'sphere s':>7} "
+    print(f"{'engine':6} {'kind':9} {'boxes':>5} {'kept':>5} {'init s':>8} {'x first':>7} "
+          f"{'pre s':>6} {'sphere s':>7} "
           f"{'full s':>7} {'post s':>6} {'step ms':>8} {'init/step':>9} {'its':>4} "
           f"{'cost x':>7} {'budget x':>8}  status")
     pool = WorkerPool(config.dynamics.workers) if config.dynamics.workers > 0 else None
@@ -125,7 +139,12 @@ def main() -> None:
             env = getattr(config.generator, kind)
             for level in args.levels or env.clutter_levels:
                 for seed in args.seeds or [None]:
-                    print(bench(kind, level, config, args.angles, pool, seed), flush=True)
+                    first = None
+                    for engine_config in configs:
+                        row, seconds = bench(kind, level, engine_config, args.angles, pool, seed,
+                                             first)
+                        first = seconds if first is None else first
+                        print(row, flush=True)
     finally:
         if pool is not None:
             pool.close()

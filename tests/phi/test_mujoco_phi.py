@@ -156,7 +156,7 @@ def test_a_failed_step_is_a_nan_state_not_an_exception(pushed, reach10):
 
 def test_finite_differences_agree_with_central_differences(scene10, reach10):
     """The coloured forward differences (fd_step 1e-6) against brute-force central ones (h
-    1e-5) at the knots where the arm pushes; measured: median 3.5e-3, 7 of 13 below 1e-2,
+    1e-5) at the knots where the arm pushes; measured: median 2.6e-3, 8 of 13 below 1e-2,
     largest 0.36 (knot 19, where central differences with h and 10 h differ by 0.41 too).
     With MuJoCo's default impedance and solver tolerance the same check measured a median of
     11 (the finite differences were noise)."""

@@ -38,7 +38,7 @@ from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.experiments.paired import bootstrap_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import StoreError, stored_plans
-from drake_clutter.phi.dynamics import Phi, initial_state
+from drake_clutter.phi.dynamics import build_phi, initial_state
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.planners.physics.geometry import ArmGeometry
@@ -83,7 +83,7 @@ def path_jam(scene, q: np.ndarray, config) -> float:
     fails."""
     spec, _ = make_pruned_spec(scene, q, knot_time=config.baseline.knot_time,
                                config=config.dynamics, world_config=config.world)
-    phi = Phi(spec)
+    phi = build_phi(spec)
     x = phi.settle(initial_state(spec.layout, q[0], scene_box_states(scene)))
     worst = 0.0
     controls = list(q[1:]) + [q[-1]] * config.physics.hold_knots

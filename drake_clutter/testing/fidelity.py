@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from drake_clutter.phi.dynamics import Phi, initial_state, make_spec
+from drake_clutter.phi.dynamics import build_phi, initial_state, make_spec
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.scene.grading import off_the_board, tilt_angle
 
@@ -44,7 +44,7 @@ def phi_final(scene, trajectory, config, settle: float, arm: str = "capsules",
     names = [b.name for b in scene.boxes]
     knot_time = float(np.diff(trajectory.times[:2])[0])
     spec = make_spec(scene, names, None, knot_time, config.dynamics, config.world, arm)
-    phi = Phi(spec)
+    phi = build_phi(spec)
     tic = time.perf_counter()
     x = phi.settle(initial_state(spec.layout, trajectory.q[0], scene_box_states(scene)))
     arm_peak, shelf_peak = 0.0, 0.0

@@ -16,7 +16,7 @@ from pydrake.multibody.math import SpatialVelocity
 
 from drake_clutter.common.config import Config
 from drake_clutter.conformance.friction import drake_coefficients
-from drake_clutter.conformance.outcomes import Trace
+from drake_clutter.conformance.outcomes import Trace, knot_jam
 from drake_clutter.conformance.scenarios import Scenario, scenario_scene
 from drake_clutter.phi.dynamics import cap_box_speeds, point_contact_geometry
 from drake_clutter.phi.jam import ACTOR, JamReader
@@ -103,15 +103,8 @@ class _Run:
         return f
 
     def jam(self) -> np.ndarray:
-        """phi's jam measure per box (m): the largest sum of the approach over any run of one
-        knot's sub-steps (a scripted run has no knots; `Phi.step_jam` sums within each knot,
-        so it reads at most this)."""
-        n = self.config.dynamics.substeps
-        if not self.approach:
-            return np.zeros(len(self.bodies))
-        steps = np.array(self.approach)
-        sums = np.cumsum(np.vstack([np.zeros(len(self.bodies)), steps]), axis=0)
-        return (sums[n:] - sums[:-n]).max(axis=0) if len(steps) >= n else sums[-1]
+        """phi's jam measure per box (m) over one knot's sub-steps in a row (`knot_jam`)."""
+        return knot_jam(self.approach, self.config.dynamics.substeps, len(self.bodies))
 
     def sample(self) -> tuple[np.ndarray, np.ndarray]:
         """Box centres (n, 3) and rotations (n, 3, 3) in W now."""

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from drake_clutter.common.config import Config
-from drake_clutter.conformance.outcomes import Trace
+from drake_clutter.conformance.outcomes import Trace, knot_jam
 from drake_clutter.conformance.scenarios import Scenario
 from drake_clutter.phi.dynamics import ARM_NODE, cap_box_speeds
 from drake_clutter.phi.jam import approach_speeds
@@ -121,14 +121,9 @@ class _Run:
         return f
 
     def jam(self) -> np.ndarray:
-        """The jam measure per box (m): the largest sum of the approach over one knot's runs
-        in a row (as the Drake harness reads it)."""
-        n = max(1, self.knot_steps // self.config.dynamics.mujoco_sample_steps)
-        if not self.approach:
-            return np.zeros(len(self.bodies))
-        steps = np.array(self.approach)
-        sums = np.cumsum(np.vstack([np.zeros(len(self.bodies)), steps]), axis=0)
-        return (sums[n:] - sums[:-n]).max(axis=0) if len(steps) >= n else sums[-1]
+        """The jam measure per box (m) over one knot's runs in a row (`knot_jam`)."""
+        runs = max(1, self.knot_steps // self.config.dynamics.mujoco_sample_steps)
+        return knot_jam(self.approach, runs, len(self.bodies))
 
     def sample(self) -> tuple[np.ndarray, np.ndarray]:
         """Box centres (n, 3) and rotations (n, 3, 3) in W now."""

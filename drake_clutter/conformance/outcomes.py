@@ -100,3 +100,16 @@ def realised_friction(scenario: Scenario, trace: Trace) -> float:
         return float("nan")
     curvature = np.polyfit(trace.times[window], x[window], 2)[0]
     return float(-2.0 * curvature / GRAVITY)
+
+
+def knot_jam(approach: list[np.ndarray], per_knot: int, num_boxes: int) -> np.ndarray:
+    """phi's jam measure per box over a scripted run (m): the largest sum of the recorded
+    approach (one (num_boxes,) row per reading) over ``per_knot`` readings in a row - one
+    knot's worth (a scripted run has no knots; `Phi.step_jam` sums within each knot, so it
+    reads at most this)."""
+    if not approach:
+        return np.zeros(num_boxes)
+    steps = np.array(approach)
+    sums = np.cumsum(np.vstack([np.zeros(num_boxes), steps]), axis=0)
+    return (sums[per_knot:] - sums[:-per_knot]).max(axis=0) if len(steps) >= per_knot \
+        else sums[-1]

@@ -16,7 +16,7 @@ from pydrake.multibody.math import SpatialVelocity
 
 from drake_clutter.common.config import Config
 from drake_clutter.conformance.friction import drake_coefficients
-from drake_clutter.conformance.outcomes import Trace, knot_jam
+from drake_clutter.conformance.outcomes import Trace, knot_jam, phi_trace
 from drake_clutter.conformance.scenarios import Scenario, scenario_scene
 from drake_clutter.phi.dynamics import cap_box_speeds, point_contact_geometry
 from drake_clutter.phi.jam import ACTOR, JamReader
@@ -154,7 +154,5 @@ def simulate(scenario: Scenario, config: Config) -> Trace:
         times.append((k + 1) * run.dt)
         positions.append(p)
         rotations.append(R)
-    forces = [forces[0] if forces else np.zeros(len(scenario.boxes))] + forces
-    n = len(times)
-    return Trace("phi", np.array(times), np.array(positions), np.array(rotations),
-                 np.array(forces[:n]), time.perf_counter() - started, failure, run.jam())
+    return phi_trace((times, positions, rotations), forces, len(scenario.boxes),
+                     time.perf_counter() - started, failure, run.jam())

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 
 from drake_clutter.common.config import Config
-from drake_clutter.conformance.outcomes import Trace, knot_jam
+from drake_clutter.conformance.outcomes import Trace, knot_jam, phi_trace
 from drake_clutter.conformance.scenarios import Scenario
 from drake_clutter.phi.dynamics import ARM_NODE, cap_box_speeds
 from drake_clutter.phi.jam import approach_speeds
@@ -156,7 +156,5 @@ def simulate(scenario: Scenario, config: Config) -> Trace:
         times.append(min(k + chunk, steps) * run.dt)
         positions.append(p)
         rotations.append(R)
-    forces = [forces[0] if forces else np.zeros(len(scenario.boxes))] + forces
-    n = len(times)
-    return Trace("phi", np.array(times), np.array(positions), np.array(rotations),
-                 np.array(forces[:n]), time.perf_counter() - started, failure, run.jam())
+    return phi_trace((times, positions, rotations), forces, len(scenario.boxes),
+                     time.perf_counter() - started, failure, run.jam())

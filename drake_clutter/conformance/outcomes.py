@@ -113,3 +113,15 @@ def knot_jam(approach: list[np.ndarray], per_knot: int, num_boxes: int) -> np.nd
     sums = np.cumsum(np.vstack([np.zeros(num_boxes), steps]), axis=0)
     return (sums[per_knot:] - sums[:-per_knot]).max(axis=0) if len(steps) >= per_knot \
         else sums[-1]
+
+
+def phi_trace(samples: tuple[list, list, list], forces: list[np.ndarray], num_boxes: int,
+              seconds: float, failure: str, jam: np.ndarray) -> Trace:
+    """phi's `Trace` from a harness's samples (times s, centres (n, 3), rotations (n, 3, 3), the
+    first at t = 0) and one static-force reading (N, (n,)) per step after it; the t = 0 sample
+    repeats the first reading, and a failed run keeps as many readings as samples."""
+    times, positions, rotations = samples
+    forces = [forces[0] if forces else np.zeros(num_boxes)] + forces
+    n = len(times)
+    return Trace("phi", np.array(times), np.array(positions), np.array(rotations),
+                 np.array(forces[:n]), seconds, failure, jam)

@@ -20,18 +20,6 @@ finite = st.floats(-1.0, 1.0, allow_nan=False)
 
 
 @pytest.fixture(scope="module")
-def scene10():
-    return generate_scene("bookshelf", 10, seed=0)
-
-
-@pytest.fixture(scope="module")
-def reach10(scene10):
-    path = straight_reach(scene10)
-    assert path is not None
-    return path
-
-
-@pytest.fixture(scope="module")
 def pruned10(scene10, reach10):
     spec, report = make_pruned_spec(scene10, reach10, config=DynamicsConfig(workers=0))
     phi = Phi(spec)

@@ -31,25 +31,14 @@ from drake_clutter.phi.mujoco_phi import MujocoPhi, contact_magnitudes  # noqa: 
 from drake_clutter.phi.pruning import make_pruned_spec  # noqa: E402
 from drake_clutter.phi.state import ARM_DIM, scene_box_states  # noqa: E402
 from drake_clutter.robot import pr2  # noqa: E402
-from drake_clutter.scene.generators import generate_scene  # noqa: E402
 from drake_clutter.scene.scenes import SceneError, save_scene  # noqa: E402
 from drake_clutter.testing.reach_paths import straight_reach  # noqa: E402
 from drake_clutter.trajectory import robot_positions  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[2]
 MUJOCO = DynamicsConfig(workers=0, engine="mujoco")
-
-
-@pytest.fixture(scope="module")
-def scene10():
-    return generate_scene("bookshelf", 10, seed=1)
-
-
-@pytest.fixture(scope="module")
-def reach10(scene10):
-    path = straight_reach(scene10)
-    assert path is not None
-    return path
+# the 10-box bookshelf of conftest.py whose straight reach pushes kept boxes
+SCENE_SEED = 1
 
 
 @pytest.fixture(scope="module")

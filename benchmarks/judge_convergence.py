@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import math
 import sys
 from collections import Counter
 from concurrent.futures import ProcessPoolExecutor
@@ -34,6 +33,7 @@ from dataclasses import replace
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.evaluation.judge import evaluate
+from drake_clutter.experiments.paired import wilson_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store
 from drake_clutter.trajectory import Trajectory
@@ -105,16 +105,6 @@ def judge_plan(task) -> list[dict]:
     return out
 
 
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """Wilson score 95 % interval of a proportion k / n."""
-    if n == 0:
-        return 0.0, 1.0
-    p = k / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return max(0.0, centre - half), min(1.0, centre + half)
-
-
 def report(results: dict) -> None:
     """Prints the grid table, the moves against the finest setting and the thresholds."""
     grid, plans, verdicts = results["grid"], results["plans"], results["verdicts"]
@@ -128,7 +118,7 @@ def report(results: dict) -> None:
     for i in sweep:
         same = sum(v[i]["kind"] == v[finest]["kind"] for v in verdicts)
         reason = sum(v[i]["reason"] == v[finest]["reason"] for v in verdicts)
-        lo, hi = wilson(same, n)
+        lo, hi = wilson_interval(same, n)
         seconds = sum(v[i]["seconds"] for v in verdicts) / max(n, 1)
         kin = sum(v[i]["kind"] == "kinematic_failure" for v in verdicts)
         print(f"{grid[i]['label']:34} {seconds:7.3f} {same:>8} of {n:<4} ({100 * same / n:5.1f} %)"

@@ -50,7 +50,6 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
-import math
 import sys
 from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor
@@ -65,7 +64,7 @@ from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.evaluation.judge import evaluate
 from drake_clutter.evaluation.outcome import outcome_grade
-from drake_clutter.experiments.paired import row_grade, verdict
+from drake_clutter.experiments.paired import row_grade, verdict, wilson_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.physics.ensemble import member_rollouts, risk_score
@@ -170,16 +169,6 @@ def score(plan: dict, term: str, members: int, risk: str, config) -> float | Non
     if term != "total":
         return float(np.mean([t[term] for t in per]))
     return risk_score([_total(t) for t in per], replace(config.ensemble, risk=risk))
-
-
-def wilson(agree: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95 % Wilson score interval of a proportion agree / n."""
-    if n == 0:
-        return float("nan"), float("nan")
-    p = agree / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return max(0.0, centre - half), min(1.0, centre + half)
 
 
 def order_agreement(plans: list[dict], label: str, terms: list[str], members: int, risk: str,
@@ -365,7 +354,7 @@ def _print_agreement(plans, label, ks, config, margin: float = 0.0) -> None:
             for term in ([*terms, *extra] if risk == "mean" else ["total"]):
                 c = counts[term]
                 n = c["agree"] + c["disagree"]
-                lo, hi = wilson(c["agree"], n)
+                lo, hi = wilson_interval(c["agree"], n)
                 print(f"    {term:14} agree {c['agree']:4} of {n:4} "
                       f"({c['agree'] / max(n, 1):.0%}, 95 % [{lo:.0%}, {hi:.0%}])")
             if k > 1:
@@ -429,7 +418,7 @@ def main(argv=None) -> int:
         _print_agreement([p for p in plans if p["p_success"] is not None], "p_success", ks,
                          config)
     right, n = refit_agreement(plans, max(ks))
-    lo, hi = wilson(right, n)
+    lo, hi = wilson_interval(right, n)
     print(f"\nweights refitted on the other scenes' pairs (K = {max(ks)}, log terms and "
           f"phi_class_kf), leave one scene out: {right} of {n} ({right / max(n, 1):.0%}, "
           f"95 % [{lo:.0%}, {hi:.0%}])")

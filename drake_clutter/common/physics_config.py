@@ -181,6 +181,8 @@ class PhysicsConfig:
     speed_fraction: float = bounded(0.25, gt=0.0)
     # smoothing eps of c_grasp = sqrt(d^2 + eps^2) - eps, m; ours
     grasp_smoothing: float = bounded(0.005, gt=0.0)
+    # c_grasp's point ("pregrasp" point carried by the target, or its "centre"), choice; ours
+    grasp_aim: Literal["pregrasp", "centre"] = "pregrasp"
     # Hessian of the phi stages' c_grasp and c_upright ("gauss_newton", "majorizer"), choice; ours
     distance_curvature: Literal["gauss_newton", "majorizer"] = "majorizer"
     # Hessian of c_upright ("tilt": J'J/s of z's horizontal part; "angle": as c_grasp), choice; ours
@@ -336,3 +338,7 @@ class EnsembleConfig:
     risk_weight: float = bounded(1.0, ge=0.0)
     # worst fraction of the members the "cvar" score averages, unitless; ours
     cvar_fraction: float = bounded(0.5, gt=0.0, le=1.0)
+    # the judge in phi's kinematic failure: "jam", "press" (box top at rest) or either; ours
+    kinematic_reading: Literal["jam", "press", "jam_or_press"] = "jam_or_press"
+    # knots the judge in phi holds the arm after Delta before reading the boxes, count; ours
+    judge_hold_knots: int = bounded(5, ge=0)

@@ -83,6 +83,7 @@ from drake_clutter.trajectory import (
     Candidate,
     PlanFileError,
     Trajectory,
+    plan_limit_violation,
     robot_positions,
 )
 from drake_clutter.worlds import bullet_world as bw
@@ -92,34 +93,6 @@ _FINGERS = slice(8, 10)
 
 
 # ----------------------------------------------------------------------------- plan checks
-
-
-def plan_limit_violation(trajectory: Trajectory, config: EvaluationConfig) -> str:
-    """"" when the plan stays within the PR2's joint position and velocity limits and the
-    gripper's range, else the first violation (the arm cannot follow it: kinematic failure)."""
-    if trajectory.joint_names != TRAJECTORY_JOINTS:
-        raise ValueError(f"trajectory joints {trajectory.joint_names} are not "
-                         f"{TRAJECTORY_JOINTS}")
-    tol = config.joint_limit_tolerance
-    q, t = trajectory.q, trajectory.times
-    for j, (name, (lo, hi)) in enumerate(pr2.arm_joint_limits().items()):
-        bad = np.flatnonzero((q[:, j] < lo - tol) | (q[:, j] > hi + tol))
-        if bad.size:
-            return (f"{name} at {q[bad[0], j]:.3f} rad (knot {bad[0]}) leaves its limits "
-                    f"[{lo:.3f}, {hi:.3f}]")
-    opening = q[:, -1]
-    bad = np.flatnonzero((opening < -tol) | (opening > pr2.GRIPPER_MAX_OPENING + tol))
-    if bad.size:
-        return f"gripper opening {opening[bad[0]]:.4f} m (knot {bad[0]}) outside its range"
-    speeds = np.abs(np.diff(q[:, :7], axis=0)) / np.diff(t)[:, None]
-    limits = pr2.velocity_limits()
-    for j, name in enumerate(pr2.ARM_JOINTS):
-        allowed = config.velocity_limit_factor * limits[name]
-        bad = np.flatnonzero(speeds[:, j] > allowed)
-        if bad.size:
-            return (f"{name} moves at {speeds[bad[0], j]:.2f} rad/s (after knot {bad[0]}), "
-                    f"above its {allowed:.2f} rad/s limit")
-    return ""
 
 
 # ----------------------------------------------------------------------------- replay

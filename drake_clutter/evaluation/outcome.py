@@ -9,28 +9,20 @@ outcomes; `scene_score` is a scene's verdict over its candidates.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from enum import StrEnum
 
 from drake_clutter.evaluation.lift_check import LiftResult
 from drake_clutter.evaluation.recording import Recording
 from drake_clutter.evaluation.robust import RobustSummary
+from drake_clutter.scene.grading import (  # noqa: F401 - re-exported: the judge's classes
+    GRADE_CLASSES,
+    OUTCOME_KINDS,
+    OutcomeKind,
+    behaviour_grade,
+    classify,
+)
 
-
-class OutcomeKind(StrEnum):
-    """Sec. III's outcome classes of a replayed plan, best first (the value is what outcome
-    files and stores hold); ``planner_failure``: the planner gave no trajectory."""
-
-    SUCCESS = "success"
-    PARTIAL_SUCCESS = "partial_success"
-    FAILURE_TO_GRASP = "failure_to_grasp"
-    OBJECTS_FALLING = "objects_falling"
-    KINEMATIC_FAILURE = "kinematic_failure"
-    PLANNER_FAILURE = "planner_failure"
-
-
-OUTCOME_KINDS: tuple[str, ...] = tuple(k.value for k in OutcomeKind)
 SCENE_SCORES: tuple[str, ...] = ("success", "partial_success", "failure")
 
 
@@ -145,39 +137,6 @@ class Outcome:
 
 
 # ----------------------------------------------------------------------------- classification
-
-
-def classify(kinematic_failure: str, fallen: Sequence[str], grasp_reason: str,
-             tipped: Sequence[str]) -> tuple[OutcomeKind, str]:
-    """(kind, reason) from the findings, with the documented precedence.
-
-    ``kinematic_failure``: its reason or ""; ``fallen``/``tipped``: box names; ``grasp_reason``:
-    "" when the target is grasped, else why not.
-    """
-    if kinematic_failure:
-        return OutcomeKind.KINEMATIC_FAILURE, kinematic_failure
-    if fallen:
-        return OutcomeKind.OBJECTS_FALLING, "fell off the shelf: " + ", ".join(fallen)
-    if grasp_reason:
-        return OutcomeKind.FAILURE_TO_GRASP, grasp_reason
-    if tipped:
-        return OutcomeKind.PARTIAL_SUCCESS, "grasped; tipped over: " + ", ".join(tipped)
-    return OutcomeKind.SUCCESS, "grasped; every obstacle upright on the shelf"
-
-
-# Sec. VI-A's comparison of two plans from the same angle: the class, then the boxes disturbed.
-GRADE_CLASSES = {"success": 0, "partial_success": 1, "failure_to_grasp": 2, "objects_falling": 2,
-                 "kinematic_failure": 3, "planner_failure": 4}
-
-
-def behaviour_grade(kind: str, disturbed: int) -> tuple[int, int]:
-    """(class, disturbed boxes) of one plan's outcome; lower is better. Class 0 success, 1
-    partial success, 2 failure to grasp or objects falling, 3 kinematic failure, 4 no plan;
-    disturbed = boxes tipped or fallen. A kinematic failure stops the replay where it is found,
-    so its count of disturbed boxes is not comparable with a whole replay's: it ranks below."""
-    if kind not in GRADE_CLASSES:
-        raise ValueError(f"unknown outcome kind {kind!r}")
-    return GRADE_CLASSES[kind], int(disturbed)
 
 
 def outcome_grade(outcome: Outcome) -> tuple[int, int]:

@@ -117,6 +117,16 @@ def _pair(configuration: str, r: dict, b: dict) -> dict:
             "held_out_gain": held_out_gain(row_kinds(r), row_kinds(b))}
 
 
+def wilson_interval(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """The Wilson score interval (95 % at z = 1.96) of a proportion k / n; (0, 1) for n = 0."""
+    if n == 0:
+        return 0.0, 1.0
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return float(max(0.0, centre - half)), float(min(1.0, centre + half))
+
+
 def bootstrap_interval(values, config: ReportConfig) -> tuple[float, float]:
     """The percentile bootstrap interval (``config.confidence``) of the mean of ``values``,
     ``config.bootstrap_resamples`` resamples seeded with ``config.bootstrap_seed``."""

@@ -1,5 +1,6 @@
 """The geometry of Sec. III's classes on a state of the scene: a box tilted or off the board,
-the target in the gripper's pre-grasp zone.
+the target in the gripper's pre-grasp zone, another box reaching into it (`box_overlap`); and
+the classes themselves (`OutcomeKind`, `classify`'s precedence, `behaviour_grade`).
 
 The judge reads them on Bullet's state at the end of a replay (`evaluation.judge`); the physics
 planner reads the same definitions on phi's state to choose among its paths without the judge
@@ -7,6 +8,9 @@ planner reads the same definitions on phi's state to choose among its paths with
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from enum import StrEnum
 
 import numpy as np
 
@@ -65,3 +69,77 @@ def target_zone_reason(p_GT, R_GT, size, opening: float, config: EvaluationConfi
     if abs(p[2]) + half[2] > reach[2] + tol:
         return f"pads not level with the target (height offset {p[2]:.3f} m)"
     return ""
+
+
+def box_overlap(p_a, R_a, half_a, p_b, R_b, half_b) -> float:
+    """How deep (m, >= 0) two boxes overlap (centres p and rotations R in one frame, half
+    extents in m): the smallest overlap of their projections over the 15 separating axes (the
+    six faces' normals and the nine edge pairs' crosses), the translation that parts them; 0
+    where an axis separates them."""
+    R_a, R_b = np.asarray(R_a, dtype=float), np.asarray(R_b, dtype=float)
+    axes = [R_a[:, i] for i in range(3)] + [R_b[:, i] for i in range(3)]
+    for i in range(3):
+        for j in range(3):
+            c = np.cross(R_a[:, i], R_b[:, j])
+            if np.linalg.norm(c) > 1e-9:
+                axes.append(c / np.linalg.norm(c))
+    d = np.asarray(p_b, dtype=float) - np.asarray(p_a, dtype=float)
+    depth = np.inf
+    for n in axes:
+        reach = (np.abs(R_a.T @ n) @ np.asarray(half_a, dtype=float)
+                 + np.abs(R_b.T @ n) @ np.asarray(half_b, dtype=float))
+        depth = min(depth, reach - abs(float(d @ n)))
+        if depth <= 0.0:
+            return 0.0
+    return float(depth)
+
+
+# ----------------------------------------------------------------------------- classes
+
+
+class OutcomeKind(StrEnum):
+    """Sec. III's outcome classes of a replayed plan, best first (the value is what outcome
+    files and stores hold); ``planner_failure``: the planner gave no trajectory."""
+
+    SUCCESS = "success"
+    PARTIAL_SUCCESS = "partial_success"
+    FAILURE_TO_GRASP = "failure_to_grasp"
+    OBJECTS_FALLING = "objects_falling"
+    KINEMATIC_FAILURE = "kinematic_failure"
+    PLANNER_FAILURE = "planner_failure"
+
+
+OUTCOME_KINDS: tuple[str, ...] = tuple(k.value for k in OutcomeKind)
+
+
+def classify(kinematic_failure: str, fallen: Sequence[str], grasp_reason: str,
+             tipped: Sequence[str]) -> tuple[OutcomeKind, str]:
+    """(kind, reason) from the findings, with the documented precedence.
+
+    ``kinematic_failure``: its reason or ""; ``fallen``/``tipped``: box names; ``grasp_reason``:
+    "" when the target is grasped, else why not.
+    """
+    if kinematic_failure:
+        return OutcomeKind.KINEMATIC_FAILURE, kinematic_failure
+    if fallen:
+        return OutcomeKind.OBJECTS_FALLING, "fell off the shelf: " + ", ".join(fallen)
+    if grasp_reason:
+        return OutcomeKind.FAILURE_TO_GRASP, grasp_reason
+    if tipped:
+        return OutcomeKind.PARTIAL_SUCCESS, "grasped; tipped over: " + ", ".join(tipped)
+    return OutcomeKind.SUCCESS, "grasped; every obstacle upright on the shelf"
+
+
+# Sec. VI-A's comparison of two plans from the same angle: the class, then the boxes disturbed.
+GRADE_CLASSES = {"success": 0, "partial_success": 1, "failure_to_grasp": 2, "objects_falling": 2,
+                 "kinematic_failure": 3, "planner_failure": 4}
+
+
+def behaviour_grade(kind: str, disturbed: int) -> tuple[int, int]:
+    """(class, disturbed boxes) of one plan's outcome; lower is better. Class 0 success, 1
+    partial success, 2 failure to grasp or objects falling, 3 kinematic failure, 4 no plan;
+    disturbed = boxes tipped or fallen. A kinematic failure stops the replay where it is found,
+    so its count of disturbed boxes is not comparable with a whole replay's: it ranks below."""
+    if kind not in GRADE_CLASSES:
+        raise ValueError(f"unknown outcome kind {kind!r}")
+    return GRADE_CLASSES[kind], int(disturbed)

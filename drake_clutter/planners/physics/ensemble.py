@@ -22,6 +22,7 @@ import numpy as np
 
 from drake_clutter.common.config import Config, EnsembleConfig
 from drake_clutter.phi.derivatives import arm_touches_box
+from drake_clutter.phi.state import ARM_DIM
 from drake_clutter.planners.physics.stage import HoldTail, StageProblem, stage_problem
 from drake_clutter.scene.perturbation import BoxPerturbation, perturb_boxes
 from drake_clutter.scene.scenes import Scene
@@ -76,10 +77,12 @@ FAILED = MemberRollout(None, None)
 @contextmanager
 def member_problems(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
                     knot_time: float | None = None, approach=None,
-                    extra_margin: float = 0.0) -> Iterator[list[StageProblem | None]]:
+                    extra_margin: float = 0.0, aim_T=None
+                    ) -> Iterator[list[StageProblem | None]]:
     """Each member's full-stage `StageProblem` (capsule arm, hold tail; None where phi cannot
     settle the member's scene), its phi pruned for all ``paths`` (T + 1, 8 each, one start)
-    with ``dynamics.prune_margin`` widened by ``extra_margin`` (m); all closed on leaving.
+    with ``dynamics.prune_margin`` widened by ``extra_margin`` (m), c_grasp aimed at
+    ``aim_T`` (`stage.stage_problem`); all closed on leaving.
     Paths scored in them (`score_in_members`) meet the same phis, whose step caches serve the
     steps paths share."""
     first, *others = paths.values()
@@ -93,7 +96,7 @@ def member_problems(scene: Scene, paths: dict[str, np.ndarray], config: Config, 
             try:
                 problems.append(stack.enter_context(stage_problem(
                     world, first, cfg, "capsules", pool, knot_time, approach,
-                    also=tuple(others))))
+                    also=tuple(others), aim_T=aim_T)))
             except (RuntimeError, ValueError):  # Drake's solver errors while settling
                 problems.append(None)
         yield problems
@@ -143,7 +146,7 @@ def _rollout_or_failed(problem: StageProblem, q: np.ndarray, jam: bool = False) 
 
 
 def _rollout(problem: StageProblem, q: np.ndarray, jam: bool = False) -> MemberRollout:
-    zs = ilqr.rollout(problem.augmented, problem.z0, q[1:])
+    zs = ilqr.rollout(problem.augmented, path_start(problem, q), q[1:])
     if not np.all(np.isfinite(zs)):
         return FAILED
     terms = {k: float(v) for k, v in problem.objective.terms(zs, q[1:]).items()}
@@ -160,6 +163,16 @@ def _rollout(problem: StageProblem, q: np.ndarray, jam: bool = False) -> MemberR
         return MemberRollout(terms, None, frozen, worst)
     return MemberRollout(terms, dict(zip(layout.box_names, layout.boxes(x_end).copy(),
                                          strict=True)), frozen, worst)
+
+
+def path_start(problem: StageProblem, q: np.ndarray) -> np.ndarray:
+    """The problem's start z0 with the arm (and the previous knot's arm) at the path's first
+    knot q[0] (8,): paths of one problem may start apart (other grasp heights); the boxes
+    stay where phi settled them."""
+    z0 = problem.z0.copy()
+    z0[:ARM_DIM] = q[0]
+    z0[problem.dynamics.layout.nx:] = q[0]
+    return z0
 
 
 def _worst_jam(problem: StageProblem, steps) -> float:
@@ -198,11 +211,13 @@ def first_contact_knot(problem: StageProblem | None, q: np.ndarray) -> int | Non
 
 
 def ensemble_scores(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
-                    knot_time: float | None = None, approach=None
+                    knot_time: float | None = None, approach=None, aim_T=None
                     ) -> tuple[dict[str, float], dict[str, list[float | None]]]:
     """Each path's ensemble score (`risk_score` over ``ensemble.members`` members, each phi
-    pruned for all ``paths``) and its members' objectives (None where phi failed)."""
-    with member_problems(scene, paths, config, pool, knot_time, approach) as problems:
+    pruned for all ``paths``, c_grasp aimed at ``aim_T``) and its members' objectives (None
+    where phi failed)."""
+    with member_problems(scene, paths, config, pool, knot_time, approach,
+                         aim_T=aim_T) as problems:
         scores, totals, _ = score_in_members(problems, paths, config)
     return scores, totals
 

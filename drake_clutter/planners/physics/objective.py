@@ -76,13 +76,15 @@ OPEN = pr2.GRIPPER_MAX_OPENING  # m, c_grp_open's q_gripper_open
 
 
 def grasp_distance(p_tool_W: np.ndarray, dp_dq: np.ndarray, p_target_W: np.ndarray,
-                   eps: float, majorize: bool = False) -> Term:
+                   eps: float, majorize: bool = False,
+                   dtarget: np.ndarray | None = None) -> Term:
     """Table I's c_grasp as a distance: sqrt(||p_gripper - p_target||^2 + eps^2) - eps (m),
-    smoothed at 0 by ``eps``, over (arm joints, target position); Gauss-Newton Hessian, or
-    with ``majorize`` J'J / s: the quadratic in r above the distance that touches it at r
-    (curvature along r too, where Gauss-Newton has none)."""
+    smoothed at 0 by ``eps``, over (arm joints, the target point's arguments); Gauss-Newton
+    Hessian, or with ``majorize`` J'J / s: the quadratic in r above the distance that touches
+    it at r (curvature along r too, where Gauss-Newton has none). ``dtarget`` (3, k): the
+    target point's Jacobian over its k arguments (default I: its own position in W)."""
     r = np.asarray(p_tool_W, dtype=float) - np.asarray(p_target_W, dtype=float)
-    J = np.hstack([dp_dq, -np.eye(3)])
+    J = np.hstack([dp_dq, -(np.eye(3) if dtarget is None else np.asarray(dtarget))])
     s = float(np.sqrt(r @ r + eps**2))
     g = J.T @ r / s
     if majorize:
@@ -90,6 +92,17 @@ def grasp_distance(p_tool_W: np.ndarray, dp_dq: np.ndarray, p_target_W: np.ndarr
     # Curvature of the distance across r (the GN of the radial part is zero): J'(I/s - rr'/s^3)J.
     H = J.T @ (np.eye(3) / s - np.outer(r, r) / s**3) @ J
     return Term(s - eps, g, H)
+
+
+def pregrasp_aim(geometry: ArmGeometry, q_pregrasp: np.ndarray, target: str,
+                 grasp_offset: float) -> np.ndarray:
+    """c_grasp's aim in the target's frame T (m): the gripper point (``grasp_offset`` m behind
+    G along x_G, `approach.grasp_offset`) at the pre-grasp configuration ``q_pregrasp`` (8,),
+    the target at rest where ``geometry`` has it."""
+    p, _, _, _ = geometry.tool(q_pregrasp)
+    if grasp_offset:
+        p = p - grasp_offset * geometry.tool_axis(q_pregrasp, 0)[0]
+    return geometry.rest_pose(target).inverse().multiply(np.asarray(p, dtype=float))
 
 
 def speed_limit(q: np.ndarray, u: np.ndarray, max_step: np.ndarray) -> Term:
@@ -132,14 +145,18 @@ class PhysicsObjective:
     for c_force, unless ``config.force_source`` is "proxy". ``approach``: the direction (W) of
     c_approach / c_approach_axis on the last ``approach_knots`` knots (None: no such terms).
     ``grasp_offset``: c_grasp's gripper point lies this far (m) behind G along x_G
-    (`approach.grasp_offset`: the pads' centre).
+    (`approach.grasp_offset`: the pads' centre). ``aim_T``: where that gripper point should
+    end, in the target's frame T (m; the candidate's pre-grasp point, `pregrasp_aim`), so it
+    follows the target where phi moves it. None, or ``grasp_aim`` "centre": the target's
+    centre (Table I as written).
     """
 
     def __init__(self, geometry: ArmGeometry, layout: StateLayout, config: PhysicsConfig,
                  x0: np.ndarray, target: str, knot_time: float, d_safe: float,
                  force_exclude: tuple[str, ...] = (),
                  static_geometry: ArmGeometry | None = None, forces=None,
-                 approach: np.ndarray | None = None, grasp_offset: float = 0.0):
+                 approach: np.ndarray | None = None, grasp_offset: float = 0.0,
+                 aim_T: np.ndarray | None = None):
         self.geometry, self.layout, self.config = geometry, layout, config
         self.grasp_offset = grasp_offset
         self.approach = (None if approach is None
@@ -158,8 +175,10 @@ class PhysicsObjective:
         self.target_index = (layout.box_index(target) if target in layout.box_names else None)
         self.box_columns = {n: ARM_DIM + BOX_TANGENT * i
                             for i, n in enumerate(layout.box_names)}
+        self.aim_T = (np.zeros(3) if aim_T is None or config.grasp_aim == "centre"
+                      else np.asarray(aim_T, dtype=float))
         if self.target_index is None:
-            self.p_target = geometry.rest_pose(target).translation()
+            self.p_target = geometry.rest_pose(target).multiply(self.aim_T)
 
     # -- per knot
 
@@ -289,33 +308,39 @@ class PhysicsObjective:
         if self.grasp_offset:
             axis_x, dx = self.geometry.tool_axis(q, 0)
             p, dp = p - self.grasp_offset * axis_x, dp - self.grasp_offset * dx
-        p_target, columns, first = self._target_point(z)
+        p_target, columns, first, dtarget = self._target_point(z)
         majorize = cfg.distance_curvature == "majorizer"
-        grasp = _embed(grasp_distance(p, dp, p_target, cfg.grasp_smoothing, majorize), columns,
-                       self.nz, first=first)
+        grasp = _embed(grasp_distance(p, dp, p_target, cfg.grasp_smoothing, majorize, dtarget),
+                       columns, self.nz, first=first)
         horiz = _embed(costs.gripper_horizontal(axis_z, dz), list(range(ARM_DIM)), self.nz)
         grp_open = _embed(costs.gripper_open(q[7], OPEN), [7], self.nz)
         return {"grasp": grasp.scaled(cfg.w_grasp), "grp_horiz": horiz.scaled(cfg.w_grp_horiz),
                 "grp_open": grp_open.scaled(cfg.w_grp_open)}
 
-    def _target_point(self, z: np.ndarray) -> tuple[np.ndarray, list[int], int | None]:
-        """c_grasp's point (the target's centre in W: its state position when kept, else its
-        resting pose), the columns of dz over (arm, that point) and `_embed`'s ``first``."""
+    def _target_point(self, z: np.ndarray
+                      ) -> tuple[np.ndarray, list[int], int | None, np.ndarray]:
+        """c_grasp's point in W (``aim_T`` carried by the target: in its state pose when kept,
+        else its resting pose), the columns of dz over (arm, the point's arguments),
+        `_embed`'s ``first`` and the point's Jacobian over its arguments (3 x 6: the target's
+        rotation vector in W, then its position; 3 x 3 when it is not kept)."""
         arm = list(range(ARM_DIM))
         if self.target_index is None:
-            return self.p_target, arm, ARM_DIM
-        s = self.box_columns[self.target] + 3
-        return (self.layout.boxes(z[:self.nx])[self.target_index, 4:7], arm + [s, s + 1, s + 2],
-                None)
+            return self.p_target, arm, ARM_DIM, np.eye(3)
+        s = self.box_columns[self.target]
+        X_WT = box_state_to_pose(self.layout.boxes(z[:self.nx])[self.target_index])
+        r_W = X_WT.rotation().multiply(self.aim_T)
+        # R' = exp([dtheta]x) R moves the point by dtheta x r = -[r]x dtheta.
+        dtarget = np.hstack([-_skew(r_W), np.eye(3)])
+        return X_WT.translation() + r_W, arm + list(range(s, s + 6)), None, dtarget
 
     def _approach(self, z: np.ndarray) -> dict[str, Term]:
         """Weighted c_approach and c_approach_axis (see `PhysicsConfig.approach_knots`) on one
         knot's state, along ``self.approach`` (unit, W)."""
         cfg, q = self.config, z[:ARM_DIM]
         p, _, dp, _ = self.geometry.tool(q)
-        p_target, columns, first = self._target_point(z)
-        line = _embed(costs.approach_line(p, dp, p_target, self.approach), columns, self.nz,
-                      first=first)
+        p_target, columns, first, dtarget = self._target_point(z)
+        line = _embed(costs.approach_line(p, dp, p_target, self.approach, dtarget), columns,
+                      self.nz, first=first)
         axis = _embed(costs.approach_axis(*self.geometry.tool_axis(q, 0), self.approach),
                       list(range(ARM_DIM)), self.nz)
         return {"approach": line.scaled(cfg.w_approach),
@@ -408,6 +433,11 @@ class PhysicsObjective:
         lxx[:, :ndx, :ndx] += np.einsum("tfi,tf,tfj->tij", Fx, d, Fx)
         luu += np.einsum("tfi,tf,tfj->tij", Fu, d, Fu)
         lux[:, :, :ndx] += np.einsum("tfi,tf,tfj->tij", Fu, d, Fx)
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """[v]x, the cross-product matrix of a 3-vector."""
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def _embed(term: Term, columns: list[int], n: int, first: int | None = None) -> Term:

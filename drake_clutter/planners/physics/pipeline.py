@@ -84,11 +84,17 @@ import numpy as np
 from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.state import ARM_DIM
 from drake_clutter.phi.workers import WorkerPool
+from drake_clutter.planners.approach import grasp_offset
 from drake_clutter.planners.baseline import plan_baseline, spline_basis
 from drake_clutter.planners.physics.ensemble import ensemble_scores
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.grasp_height import box_depths, choose_height
-from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective, max_steps
+from drake_clutter.planners.physics.objective import (
+    KinematicObjective,
+    PhysicsObjective,
+    max_steps,
+    pregrasp_aim,
+)
 from drake_clutter.planners.physics.sampling import sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
 from drake_clutter.planners.selection import selection_score
@@ -238,7 +244,8 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
                   pool: WorkerPool | None = None, times: np.ndarray | None = None,
                   alternatives: tuple[np.ndarray, ...] = (),
                   approach: np.ndarray | None = None, min_opening: float | None = None,
-                  deadline: float | None = None) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
+                  deadline: float | None = None, aim_T: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
     """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
     default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
     stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
@@ -246,10 +253,11 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
     this stage's phi (pruned for all of them); info's ``start_objectives`` lists them.
     ``approach``: the final approach direction in W of c_approach
     (`PhysicsConfig.approach_knots`); ``min_opening``: the last knot's least gripper opening
-    (m, `knot_bounds`); ``deadline``: see `solver_settings`."""
+    (m, `knot_bounds`); ``deadline``: see `solver_settings`; ``aim_T``: c_grasp's point in
+    the target's frame (`objective.pregrasp_aim`; default: ``q``'s last knot's)."""
     knot_time = _knot_time(times, config)
     with stage_problem(scene, q, config, variant, pool, knot_time, approach,
-                       also=tuple(alternatives)) as problem:
+                       also=tuple(alternatives), aim_T=aim_T) as problem:
         augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
         starts = [q, *alternatives]
         basis = None
@@ -310,24 +318,27 @@ def _knot_time(times: np.ndarray | None, config: Config) -> float:
 
 def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
                 times: np.ndarray | None = None, approach: np.ndarray | None = None,
-                geometry: ArmGeometry | None = None) -> tuple[str, dict]:
+                geometry: ArmGeometry | None = None, aim_T: np.ndarray | None = None
+                ) -> tuple[str, dict]:
     """The name of the knot path (each (T + 1, 8), one start) with the lowest objective of the
     full stage (capsule arm, hold tail) in one phi pruned for all ``paths`` - with
     ``ensemble.members`` > 1 the lowest ensemble score (`ensemble.ensemble_scores`) - and
     what was measured: each path's objective or score (None where phi fails) and the
     pruning. Ties go to the earlier name; when phi fails on every path, the first.
-    ``geometry``: the capsule arm with the boxes at rest, for the press check."""
+    ``geometry``: the capsule arm with the boxes at rest, for the press check; ``aim_T``:
+    c_grasp's point in the target's frame (default: the first path's last knot's)."""
     knot_time = _knot_time(times, config)
     names = list(paths)
     extra = {}
     if config.ensemble.members > 1:
-        values, members = ensemble_scores(scene, paths, config, pool, knot_time, approach)
+        values, members = ensemble_scores(scene, paths, config, pool, knot_time, approach,
+                                          aim_T)
         extra = {"members": members, "risk": config.ensemble.risk}
         pruning = None
     else:
         first, *others = (paths[n] for n in names)
         with stage_problem(scene, first, config, "capsules", pool, knot_time, approach,
-                           also=tuple(others)) as problem:
+                           also=tuple(others), aim_T=aim_T) as problem:
             values = {n: _path_objective(problem.augmented, problem.objective, problem.z0,
                                          paths[n]) for n in names}
             pruning = problem.report.summary()
@@ -355,7 +366,7 @@ def _presses(scene: Scene, paths: dict[str, np.ndarray], config: Config,
 def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
                           variant: str, iterations: int, pool, times,
                           alternatives: tuple[np.ndarray, ...] = (), approach=None,
-                          deadline: float | None = None):
+                          deadline: float | None = None, aim_T: np.ndarray | None = None):
     """`physics_stage` from ``paths[0]`` (or the best of ``alternatives``, see there); if phi
     cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
     the pre-processing or sphere stage produced with the hydroelastic phi, measured on
@@ -363,7 +374,8 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
     opening = (float(paths[1][-1, GRIPPER]) if config.physics.keep_open else None)
     try:
         q, result, info = physics_stage(scene, paths[0], config, variant, iterations, pool,
-                                        times, alternatives, approach, opening, deadline)
+                                        times, alternatives, approach, opening, deadline,
+                                        aim_T=aim_T)
         best = int(np.argmin(info["start_objectives"]))
         return q, result, {**info, "started_from": "previous stage" if best == 0 else
                            f"alternative {best}"}
@@ -372,7 +384,7 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
             raise
         q, result, info = physics_stage(scene, paths[1], config, variant, iterations, pool,
                                         times, approach=approach, min_opening=opening,
-                                        deadline=deadline)
+                                        deadline=deadline, aim_T=aim_T)
         return q, result, {**info, "started_from": f"baseline ({exc})"}
 
 
@@ -468,6 +480,8 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV);
     # only c_approach reads it.
     approach = at_rest.tool_axis(baseline_q[-1], 0)[0] if cfg.approach_knots > 0 else None
+    # c_grasp aims where the start path's pads end (its pre-grasp), carried by the target.
+    aim_T = pregrasp_aim(at_rest, baseline_q[-1], scene.target, grasp_offset(config.baseline))
     tic = time.perf_counter()
     try:
         q, result = preprocess(scene, q, config, at_rest, budget.deadline)
@@ -505,7 +519,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
                                if p is not q and not np.array_equal(p, q))
             q, result, info = _phi_stage_or_restart(scene, (q, baseline_q), config, variant,
                                                     iterations, pool, candidate.trajectory.times,
-                                                    others, approach, budget.deadline)
+                                                    others, approach, budget.deadline, aim_T)
         except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
             timings[name] = time.perf_counter() - tic
             return _failed(candidate, f"{name} stage: {exc}", timings, details)
@@ -532,7 +546,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         try:
             chosen, details["select"] = select_path(scene, paths, config, pool,
                                                     candidate.trajectory.times, approach,
-                                                    at_rest)
+                                                    at_rest, aim_T)
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep post
             chosen, details["select"] = "post", {"chosen": "post", "error": str(exc)}
         q = paths[chosen]

@@ -21,7 +21,7 @@ from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, StateLayout, scene_box
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import grasp_offset
 from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.objective import PhysicsObjective
+from drake_clutter.planners.physics.objective import PhysicsObjective, pregrasp_aim
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.solvers import ilqr
 
@@ -269,11 +269,13 @@ class StageProblem:
 @contextmanager
 def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
                   pool: WorkerPool | None = None, knot_time: float | None = None,
-                  approach: np.ndarray | None = None, also: tuple[np.ndarray, ...] = ()):
+                  approach: np.ndarray | None = None, also: tuple[np.ndarray, ...] = (),
+                  aim_T: np.ndarray | None = None):
     """The `StageProblem` of a phi stage (``variant`` arm) about the knot path ``q`` (T + 1,
     8; phi pruned to it and to the paths ``also``), ``knot_time`` s apart (default
     ``baseline.knot_time``); its phi is closed on leaving the ``with`` block. ``approach``: as
-    in `physics_stage`."""
+    in `physics_stage`. ``aim_T``: c_grasp's point in the target's frame (m, `pregrasp_aim`;
+    default: the gripper point at ``q``'s last knot, the target at rest)."""
     knot_time = knot_time or config.baseline.knot_time
     spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
                                     variant, also)
@@ -294,13 +296,16 @@ def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
     # capsule gripper in that stage.
     static = ArmGeometry(scene, "capsules") if variant == "sphere_gripper" else None
     cfg = config.physics
+    geometry = ArmGeometry(scene, variant)
+    offset = grasp_offset(config.baseline)
+    if aim_T is None:
+        aim_T = pregrasp_aim(geometry, q[-1], scene.target, offset)
     with PhiDynamics(spec, pool) as dynamics:
         x0 = dynamics.phi.settle(initial_state(layout, q[0], scene_box_states(scene)))
-        objective = PhysicsObjective(ArmGeometry(scene, variant), layout, cfg, x0,
-                                     scene.target, knot_time, config.baseline.d_safe,
-                                     force_exclude=held, static_geometry=static,
-                                     forces=dynamics, approach=approach,
-                                     grasp_offset=grasp_offset(config.baseline))
+        objective = PhysicsObjective(geometry, layout, cfg, x0, scene.target, knot_time,
+                                     config.baseline.d_safe, force_exclude=held,
+                                     static_geometry=static, forces=dynamics,
+                                     approach=approach, grasp_offset=offset, aim_T=aim_T)
         per_box = cfg.spectral_cap_scope == "box"
         augmented = AugmentedPhi(dynamics, cfg.max_spectral_radius, cfg.parallel_line_search,
                                  cfg.hold_knots, per_box)

@@ -872,7 +872,7 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
     calls = []
 
     def stage(scene, q, config, variant, iterations, pool, times, alternatives=(),
-              approach=None, min_opening=None, deadline=None):
+              approach=None, min_opening=None, deadline=None, aim_T=None):
         calls.append(q)
         if q[0, 0] == 1.0:  # phi cannot simulate the previous stage's path
             raise physics.PhiFailure("phi failed on the initial rollout")
@@ -902,7 +902,7 @@ def test_select_path_takes_the_lowest_objective_ties_to_the_first(monkeypatch):
     pruned_for = []
 
     @contextmanager
-    def problem(scene, q, config, variant, pool, knot_time, approach, also=()):
+    def problem(scene, q, config, variant, pool, knot_time, approach, also=(), aim_T=None):
         pruned_for.append(1 + len(also))
         yield SimpleNamespace(augmented=None, objective=None, z0=None,
                               report=SimpleNamespace(summary=lambda: "kept 0 of 0 boxes"))
@@ -935,7 +935,7 @@ def test_select_press_ranks_pressing_paths_last(monkeypatch):
     from drake_clutter.planners.physics import pipeline as physics
 
     @contextmanager
-    def problem(scene, q, config, variant, pool, knot_time, approach, also=()):
+    def problem(scene, q, config, variant, pool, knot_time, approach, also=(), aim_T=None):
         yield SimpleNamespace(augmented=None, objective=None, z0=None,
                               report=SimpleNamespace(summary=lambda: ""))
 

@@ -1,0 +1,207 @@
+"""The judge in phi (beyond the paper): Sec. III's classes read on phi's rollouts of a plan.
+
+The judge replays a plan in Bullet and sorts it into Sec. III's classes; a planner may not
+(Bullet and the mesh arm are the judge's alone). This reads the same classes on phi: the plan
+rolled out with its held knots after Delta (``ensemble.judge_hold_knots``) in each of phi's
+ensemble members (`ensemble.member_world`: member 0 the scene, members k >= 1 every box moved
+and its mass and friction scaled from the planner's seeds ``[ensemble.seed, k]``, never the
+judge's), and in each member:
+
+* **kinematic failure** - the plan leaves the PR2's joint or speed limits
+  (`trajectory.plan_limit_violation`, the judge's own check), or, by
+  ``ensemble.kinematic_reading``: phi's jam measure reaches ``dynamics.jam_depth`` ("jam",
+  `phi.jam`: the arm's commanded approach into a box a rigid world would not let move, largest
+  knot of the path and the hold), the arm presses on a box's top deeper than
+  ``physics.press_tolerance`` with the boxes at rest ("press", `penetration.path_depths`), or
+  either ("jam_or_press");
+* **objects falling** - a box's centre off the board or below its top
+  (`grading.off_the_board`) at the end of the hold;
+* **failure to grasp** - the target not in the last knot's pre-grasp zone
+  (`grading.target_zone_reason`) or another box reaching into the zone deeper than
+  ``evaluation.intrusion_tolerance`` (`grading.box_overlap`);
+* **partial success** - an obstacle tipped past ``evaluation.max_tilt``; else **success**;
+
+with the judge's precedence (`grading.classify`). A member where phi fails to roll the plan
+out reads as a kinematic failure (the plan cannot be simulated to completion). Over the K
+members: P(success) and the expected grade class, as the robust judge summarises its replays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
+from pydrake.math import RotationMatrix
+
+from drake_clutter.common.config import Config, EvaluationConfig
+from drake_clutter.planners.physics.ensemble import MemberRollout, member_rollouts
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.penetration import path_depths
+from drake_clutter.scene.grading import (
+    GRADE_CLASSES,
+    OutcomeKind,
+    box_overlap,
+    classify,
+    off_the_board,
+    target_zone_reason,
+    tilt_angle,
+    zone_extent,
+)
+from drake_clutter.scene.scenes import Scene
+from drake_clutter.trajectory import Trajectory, plan_limit_violation
+
+
+@dataclass(frozen=True)
+class PhiReading:
+    """One member's reading of a plan: Sec. III's class (an `OutcomeKind` value), why, and
+    the boxes tipped or fallen at the end of the hold."""
+
+    kind: str
+    reason: str
+    disturbed: int = 0
+
+    @property
+    def grade(self) -> int:
+        """The class's grade (`grading.GRADE_CLASSES`: 0 success .. 3 kinematic failure)."""
+        return GRADE_CLASSES[self.kind]
+
+
+@dataclass(frozen=True)
+class PhiVerdict:
+    """A plan's readings over the K members (member 0 the nominal world)."""
+
+    readings: tuple[PhiReading, ...]
+
+    @property
+    def p_success(self) -> float:
+        """Fraction of the members that read a success."""
+        return sum(r.kind == OutcomeKind.SUCCESS for r in self.readings) / len(self.readings)
+
+    @property
+    def expected_grade(self) -> float:
+        """Mean grade class over the members (lower is better)."""
+        return float(np.mean([r.grade for r in self.readings]))
+
+    @property
+    def disturbed(self) -> float:
+        """Mean boxes tipped or fallen over the members."""
+        return float(np.mean([r.disturbed for r in self.readings]))
+
+    def key(self) -> tuple[float, float, float]:
+        """The order of plans, best first: higher P(success), then lower expected grade,
+        then fewer boxes disturbed."""
+        return (-self.p_success, self.expected_grade, self.disturbed)
+
+    def to_data(self) -> dict:
+        """JSON-ready dict."""
+        return {"kinds": [r.kind for r in self.readings],
+                "reasons": [r.reason for r in self.readings],
+                "disturbed": [r.disturbed for r in self.readings],
+                "p_success": self.p_success, "expected_grade": self.expected_grade}
+
+
+def box_fates(scene: Scene, geometry: ArmGeometry, final: dict[str, np.ndarray],
+              evaluation: EvaluationConfig
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every scene box's pose at the end (``final``: the kept boxes' 13-number states,
+    quaternion wxyz then position in W (m); a box missing from it is at rest where the scene
+    put it): (positions (n, 3), rotations (n, 3, 3), fallen (n,), tipped (n,)) in scene
+    order, as `grading` defines them; the target counts as tipped here too."""
+    names = [b.name for b in scene.boxes]
+    p, R = [], []
+    for name in names:
+        if name in final:
+            q = np.asarray(final[name][:4], dtype=float)
+            R.append(RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix())
+            p.append(np.asarray(final[name][4:7], dtype=float))
+        else:
+            X = geometry.rest_pose(name)
+            R.append(X.rotation().matrix())
+            p.append(X.translation())
+    p, R = np.array(p), np.array(R)
+    fallen = off_the_board(scene, p)
+    tipped = ~fallen & (tilt_angle(R) > evaluation.max_tilt)
+    return p, R, fallen, tipped
+
+
+def grasp_reason(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray, p: np.ndarray,
+                 R: np.ndarray, evaluation: EvaluationConfig) -> str:
+    """"" when the target (scene order in p (n, 3), R (n, 3, 3), W) sits in the pre-grasp
+    zone of the gripper at the last knot ``q_last`` (8,) and no other box reaches into the
+    zone deeper than ``intrusion_tolerance``; else why not (the judge's `grasp_check`)."""
+    names = [b.name for b in scene.boxes]
+    i = names.index(scene.target)
+    X_WG = geometry.tool_jacobian(q_last)[0]
+    R_WG, p_WG = X_WG.rotation().matrix(), X_WG.translation()
+    opening = float(q_last[7])
+    reason = target_zone_reason(R_WG.T @ (p[i] - p_WG), R_WG.T @ R[i], scene.target_box.size,
+                                opening, evaluation)
+    if reason:
+        return reason
+    centre, half = zone_extent(opening, evaluation)
+    zone_W = p_WG + R_WG @ centre
+    intruders = [name for k, (name, box) in enumerate(zip(names, scene.boxes, strict=True))
+                 if k != i and box_overlap(zone_W, R_WG, half, p[k], R[k],
+                                           np.asarray(box.size) / 2)
+                 > evaluation.intrusion_tolerance]
+    return ("another box is in the gripper: " + ", ".join(intruders)) if intruders else ""
+
+
+def read_member(scene: Scene, geometry: ArmGeometry, q: np.ndarray, rollout: MemberRollout,
+                kinematic: str, config: Config) -> PhiReading:
+    """Sec. III's class of the knot path ``q`` (T + 1, 8) in one member's ``rollout`` (with
+    its jam measure); ``kinematic``: the plan-level kinematic failure already found ("" for
+    none). See the module docstring."""
+    if rollout.final_boxes is None:
+        return PhiReading(OutcomeKind.KINEMATIC_FAILURE.value, "phi failed on the rollout")
+    reason = kinematic
+    if not reason and config.ensemble.kinematic_reading in ("jam", "jam_or_press"):
+        if rollout.jam is not None and rollout.jam >= config.dynamics.jam_depth:
+            reason = f"jam {rollout.jam * 1e3:.1f} mm"
+    evaluation = config.evaluation
+    p, R, fallen, tipped = box_fates(scene, geometry, rollout.final_boxes, evaluation)
+    names = [b.name for b in scene.boxes]
+    grasp = grasp_reason(scene, geometry, q[-1], p, R, evaluation)
+    obstacles_tipped = [n for n, t in zip(names, tipped, strict=True) if t and n != scene.target]
+    kind, why = classify(reason, [n for n, f in zip(names, fallen, strict=True) if f], grasp,
+                         obstacles_tipped)
+    return PhiReading(kind.value, why, int(fallen.sum() + tipped.sum()))
+
+
+def plan_kinematic_failure(scene: Scene, geometry: ArmGeometry, q: np.ndarray,
+                           times: np.ndarray, config: Config) -> str:
+    """The member-independent kinematic failures of a knot path (T + 1, 8) at ``times`` (s):
+    the judge's joint and speed limits, and with ``kinematic_reading`` "press" or
+    "jam_or_press" a press on a box's top (boxes at rest); "" for none."""
+    violation = plan_limit_violation(Trajectory(np.asarray(times, float), q), config.evaluation)
+    if violation:
+        return violation
+    if config.ensemble.kinematic_reading in ("press", "jam_or_press"):
+        press, _ = path_depths(geometry, q, config.physics.press_substeps,
+                               config.physics.press_normal_z, (scene.target,))
+        if press > config.physics.press_tolerance:
+            return f"presses on a box top {press * 1e3:.1f} mm"
+    return ""
+
+
+def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, config: Config,
+                pool=None, geometry: ArmGeometry | None = None) -> dict[str, PhiVerdict]:
+    """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's
+    ``ensemble.members`` members; all paths of one call meet the same members, each member's
+    phi pruned for all of them and rolled out from each path's own start. ``geometry``: the
+    capsule arm with the boxes at rest (built here if None)."""
+    geometry = geometry or ArmGeometry(scene, "capsules")
+    knot_time = float(np.diff(times[:2])[0])
+    held = replace(config, physics=replace(config.physics,
+                                           hold_knots=config.ensemble.judge_hold_knots))
+    plan_level = {name: plan_kinematic_failure(scene, geometry, q, times, config)
+                  for name, q in paths.items()}
+    jam = config.ensemble.kinematic_reading in ("jam", "jam_or_press")
+    readings: dict[str, list[PhiReading]] = {name: [] for name in paths}
+    for member in range(config.ensemble.members):
+        rollouts = member_rollouts(scene, paths, held, member, pool, knot_time, jam=jam)
+        for name, q in paths.items():
+            readings[name].append(read_member(scene, geometry, q, rollouts[name],
+                                              plan_level[name], config))
+    return {name: PhiVerdict(tuple(r)) for name, r in readings.items()}

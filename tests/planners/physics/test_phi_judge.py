@@ -1,0 +1,182 @@
+"""The judge in phi: Sec. III's classes read on phi's boxes, the box overlap it reads
+intruders with (against known answers and Bullet's own), and whole plans judged in phi's
+members (deterministic, every class a real rollout can give)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pybullet as pb
+import pytest
+from pydrake.math import RigidTransform, RollPitchYaw
+from scipy.spatial.transform import Rotation
+
+from drake_clutter.common.config import Config, load_config
+from drake_clutter.phi.state import pose_to_box_state, scene_box_states
+from drake_clutter.planners.physics.ensemble import FAILED, MemberRollout
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.phi_judge import (
+    PhiReading,
+    PhiVerdict,
+    judge_paths,
+    read_member,
+)
+from drake_clutter.scene.grading import box_overlap, zone_extent
+
+# ----------------------------------------------------------------------------- box overlap
+
+
+def test_box_overlap_known_answers():
+    I = np.eye(3)
+    half = np.array([0.05, 0.05, 0.05])
+    assert box_overlap([0, 0, 0], I, half, [0.09, 0, 0], I, half) == pytest.approx(0.01)
+    assert box_overlap([0, 0, 0], I, half, [0.11, 0, 0], I, half) == 0.0
+    assert box_overlap([0, 0, 0], I, half, [0.09, 0.08, 0], I, half) == pytest.approx(0.01)
+    # A cube turned 45 deg about z, its edge 0.01 m into the other's face.
+    R = Rotation.from_euler("z", 45, degrees=True).as_matrix()
+    x = 0.05 + 0.05 * np.sqrt(2) - 0.01
+    assert box_overlap([0, 0, 0], I, half, [x, 0, 0], R, half) == pytest.approx(0.01)
+    # Separated only along an edge-edge axis: two cubes crossed at their edges.
+    Ra = Rotation.from_euler("x", 45, degrees=True).as_matrix()
+    Rb = Rotation.from_euler("y", 45, degrees=True).as_matrix()
+    gap = 2 * 0.05 * np.sqrt(2)
+    assert box_overlap([0, 0, 0], Ra, half, [0, 0, gap + 0.001], Rb, half) == 0.0
+    assert box_overlap([0, 0, 0], Ra, half, [0, 0, gap - 0.004], Rb, half) == pytest.approx(
+        0.004, abs=1e-9)
+
+
+def test_box_overlap_matches_bullets_penetration():
+    """Random pairs of boxes: the same depth as Bullet's closest points (GJK/EPA)."""
+    rng = np.random.default_rng(3)
+    client = pb.connect(pb.DIRECT)
+    try:
+        checked = 0
+        for _ in range(60):
+            half_a, half_b = rng.uniform(0.01, 0.06, 3), rng.uniform(0.01, 0.06, 3)
+            R_a = Rotation.random(random_state=rng).as_matrix()
+            R_b = Rotation.random(random_state=rng).as_matrix()
+            p_b = rng.uniform(-0.06, 0.06, 3)
+            bodies = []
+            for half, p, R in ((half_a, np.zeros(3), R_a), (half_b, p_b, R_b)):
+                shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half.tolist(),
+                                                physicsClientId=client)
+                bodies.append(pb.createMultiBody(0.0, shape, -1, p.tolist(),
+                                                 Rotation.from_matrix(R).as_quat().tolist(),
+                                                 physicsClientId=client))
+            points = pb.getClosestPoints(*bodies, 0.0, physicsClientId=client)
+            bullet = max([0.0] + [-pt[8] for pt in points])
+            ours = box_overlap(np.zeros(3), R_a, half_a, p_b, R_b, half_b)
+            for body in bodies:
+                pb.removeBody(body, physicsClientId=client)
+            if bullet > 1e-4 or ours > 1e-4:
+                checked += 1
+                assert ours == pytest.approx(bullet, abs=1e-3)  # Bullet's margin
+        assert checked > 20
+    finally:
+        pb.disconnect(client)
+
+
+# ----------------------------------------------------------------------------- readings
+
+
+@pytest.fixture(scope="module")
+def setting(scene, baseline_path):
+    """fig5, the baseline's path at alpha 0.3 (its last knot's pads around the target), the
+    capsule arm, and the boxes where the scene puts them."""
+    return scene, baseline_path, ArmGeometry(scene, "capsules"), scene_box_states(scene)
+
+
+def _moved(states, name, X):
+    out = dict(states)
+    out[name] = pose_to_box_state(X)
+    return out
+
+
+def _read(setting, final, kinematic="", jam=0.0, config=None):
+    scene, q, geometry, _ = setting
+    return read_member(scene, geometry, q, MemberRollout({}, final, False, jam), kinematic,
+                       config or Config())
+
+
+def test_readings_give_every_class_of_sec_iii(setting):
+    scene, q, geometry, states = setting
+    assert _read(setting, states).kind == "success"
+    rest = {b.name: geometry.rest_pose(b.name) for b in scene.boxes}
+    # An obstacle lying on its side: partial success, one box disturbed.
+    side = RigidTransform(RollPitchYaw(np.pi / 2, 0, 0), rest["large_stable"].translation()
+                          + [0, 0, 0.01])
+    tipped = _read(setting, _moved(states, "large_stable", side))
+    assert (tipped.kind, tipped.disturbed) == ("partial_success", 1)
+    # The same box on the floor: objects falling.
+    floor = RigidTransform([0.3, 0.1, 0.06])
+    assert _read(setting, _moved(states, "large_stable", floor)).kind == "objects_falling"
+    # The target pushed 10 cm deeper: failure to grasp.
+    deeper = RigidTransform(rest["target"].translation() + [0.10, 0, 0])
+    assert _read(setting, _moved(states, "target", deeper)).kind == "failure_to_grasp"
+    # Another box inside the pad zone (the target moved out of the way): its name is the reason.
+    X_WG = geometry.tool_jacobian(q[-1])[0]
+    centre, _ = zone_extent(float(q[-1, 7]), Config().evaluation)
+    final = _moved(states, "target", deeper)
+    final = _moved(final, "small_tippy", RigidTransform(X_WG.multiply(centre)
+                                                        - [0, 0, 0.05]))
+    reading = _read(setting, final)
+    assert reading.kind == "failure_to_grasp"
+    # A jam, a plan-level failure and a failed rollout are kinematic failures, above a fall.
+    assert _read(setting, _moved(states, "large_stable", floor), jam=0.002).kind == \
+        "kinematic_failure"
+    assert _read(setting, states, kinematic="presses").reason == "presses"
+    only_press = replace(Config(), ensemble=replace(Config().ensemble,
+                                                    kinematic_reading="press"))
+    assert _read(setting, states, jam=0.002, config=only_press).kind == "success"
+    assert read_member(scene, geometry, q, FAILED, "", Config()).kind == "kinematic_failure"
+
+
+def test_intruder_in_the_zone_fails_the_grasp_with_the_target_in_place(setting):
+    scene, q, geometry, states = setting
+    X_WG = geometry.tool_jacobian(q[-1])[0]
+    centre, half = zone_extent(float(q[-1, 7]), Config().evaluation)
+    size = scene.box("small_tippy").size
+    # small_tippy standing just beside the target, 5 mm into the zone along y_G.
+    y = half[1] + size[1] / 2 - 0.005
+    p = X_WG.multiply(centre + [0.0, -y, 0.0])
+    p[2] = geometry.rest_pose("small_tippy").translation()[2]
+    reading = _read(setting, _moved(states, "small_tippy", RigidTransform(
+        X_WG.rotation(), p)))
+    assert reading.kind == "failure_to_grasp"
+    assert "small_tippy" in reading.reason
+
+
+def test_verdict_summarises_members_as_the_robust_judge():
+    v = PhiVerdict((PhiReading("success", ""), PhiReading("partial_success", "", 1),
+                    PhiReading("kinematic_failure", ""), PhiReading("success", "")))
+    assert v.p_success == 0.5
+    assert v.expected_grade == pytest.approx((0 + 1 + 3 + 0) / 4)
+    assert v.disturbed == 0.25
+    worse = PhiVerdict((PhiReading("success", ""), PhiReading("objects_falling", "", 2)))
+    assert v.key() < worse.key()  # same P(success) and expected grade: fewer boxes disturbed
+    assert v.to_data()["kinds"][2] == "kinematic_failure"
+
+
+# ----------------------------------------------------------------------------- whole plans
+
+
+def test_judge_paths_is_deterministic_and_reads_the_plans(scene, baseline_path):
+    """Two paths in phi's nominal member and one perturbed member (MuJoCo phi, for speed):
+    the same verdicts twice; the baseline's path at alpha 0.3 pushes large_stable into the
+    target (a jam in both members), the path kept outside the shelf never reaches the
+    target (failure to grasp)."""
+    config = load_config(None, ["dynamics.engine=mujoco", "ensemble.members=2",
+                                "dynamics.workers=0"])
+    times = np.arange(len(baseline_path)) * config.baseline.knot_time
+    short = np.repeat(baseline_path[:1], len(baseline_path), axis=0)
+    paths = {"baseline": baseline_path, "outside": short}
+    first = judge_paths(scene, paths, times, config)
+    again = judge_paths(scene, paths, times, config)
+    assert {k: v.to_data() for k, v in first.items()} == \
+        {k: v.to_data() for k, v in again.items()}
+    assert len(first["baseline"].readings) == 2
+    assert first["outside"].readings[0].kind == "failure_to_grasp"
+    assert first["outside"].p_success == 0.0
+    assert all(r.kind == "kinematic_failure" and r.reason.startswith("jam")
+               for r in first["baseline"].readings)

@@ -1,0 +1,197 @@
+#!/usr/bin/env python3
+"""The ceiling of the push path family: the best of N sampled paths per initialization, picked
+by the robust judge and read on fresh seeds, against the straight lines' own ceiling.
+
+    python benchmarks/push_ceiling.py --db CANDIDATES.db [--samples 3] [--seed 0]
+        [--fresh-seed 1] [--replays 8] [--jobs 2] [--cache FILE.jsonl] [--set FIELD=VALUE]
+
+The store holds the baseline's straight paths of each initialization (scene, angle) at several
+grasp heights, judged by the robust judge (`docs/specs/candidates_probe_half.yaml`: 5 heights).
+Around each straight path ``--samples`` members of the push family are drawn
+(`planners.push.family`, seeded by ``[seed, initialization, height]``); the feasible ones are
+judged by the robust judge as the store's were (``--replays`` replays, its seed). Per
+initialization three plans are picked by that judgement (P(success), then expected grade):
+
+* ``default``: the straight path at the baseline's default height (no choice);
+* ``straight``: the best straight path (the straight lines' ceiling);
+* ``family``: the best of the straight paths and the sampled members (the family's ceiling);
+
+and each is read again on ``--replays`` fresh perturbed worlds (seed ``--fresh-seed``, the
+nominal replay left out: it is the same world at any seed, and the pick saw it). Printed: the
+mean fresh P(success) of each, and the paired differences family - default, straight - default
+and family - straight with seeded bootstrap intervals, overall and per environment; how often
+the family's pick is a bent path, and what its via-points were. ``--cache`` keeps one JSON line
+per initialization, so a stopped run resumes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import zlib
+from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from drake_clutter.common.config import load_config
+from drake_clutter.common.typed_yaml import InputError
+from drake_clutter.evaluation.judge import evaluate
+from drake_clutter.experiments.paired import bootstrap_interval
+from drake_clutter.experiments.specs import stored_scene
+from drake_clutter.experiments.store import stored_plans
+from drake_clutter.planners.approach import static_planning_world
+from drake_clutter.planners.clearance import ShelfClearance, dense_check
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.push.family import FamilyRanges, draw_member, member_path
+from drake_clutter.trajectory import Trajectory, plan_limit_violation
+
+DEFAULT_HEIGHT = "h0.5"
+
+
+def load_straights(dbs) -> dict[tuple[str, int], dict[str, dict]]:
+    """The stored straight paths with robust replays, by initialization and configuration."""
+    found: dict[tuple[str, int], dict[str, dict]] = defaultdict(dict)
+    for _, row, trajectory, _ in stored_plans(dbs):
+        robust = (row.get("outcome") or {}).get("robust")
+        if robust:
+            found[(row["scene"], row["angle"])][row["config_name"]] = {
+                "times": trajectory.times.tolist(), "q": trajectory.q.tolist(),
+                "p_success": float(robust["p_success"]),
+                "expected_grade": float(robust["expected_grade"])}
+    return found
+
+
+def _judged(scene, times, q, config, replays: int, seed: int, fresh: bool) -> dict:
+    """The robust judge's P(success) and expected grade of one path (fresh: replay 0, the
+    nominal world, left out)."""
+    outcome = evaluate(scene, Trajectory(np.asarray(times), np.asarray(q)), config.evaluation,
+                       robust=replays + (1 if fresh else 0), seed=seed)
+    kinds = list(outcome.robust.kinds)[1 if fresh else 0:]
+    grades = [g[0] for g in outcome.robust.grades][1 if fresh else 0:]
+    return {"p_success": sum(k == "success" for k in kinds) / len(kinds),
+            "expected_grade": float(np.mean(grades)), "nominal": outcome.kind.value}
+
+
+def ceiling_one(job) -> dict:
+    """One initialization: the members drawn and judged, the three picks read fresh."""
+    (scene_name, angle), straights, config, args = job
+    scene = stored_scene(scene_name, config)
+    geometry = ArmGeometry(scene, "capsules")
+    clearance = ShelfClearance(static_planning_world(scene))
+    ranges = FamilyRanges()
+    plans = {name: {**s, "member": None} for name, s in straights.items()}
+    drawn = kept = 0
+    for name, s in sorted(straights.items()):
+        rng = np.random.default_rng([args.seed, zlib.crc32(f"{scene_name}|{angle}".encode()),
+                                     zlib.crc32(name.encode())])
+        q = np.asarray(s["q"])
+        for i in range(args.samples):
+            member = draw_member(rng, ranges)
+            path, error = member_path(geometry, q, member)
+            drawn += 1
+            times = np.asarray(s["times"])
+            if (error > 1e-3 or plan_limit_violation(Trajectory(times, path), config.evaluation)
+                    or not dense_check(clearance, path[:, :7], config.baseline).passed):
+                continue
+            kept += 1
+            judged = _judged(scene, times, path, config, args.replays, 0, fresh=False)
+            plans[f"{name}/m{i}"] = {"times": s["times"], "q": path.tolist(), **judged,
+                                     "member": member.to_data()}
+
+    def best(names):
+        return min(names, key=lambda n: (-plans[n]["p_success"], plans[n]["expected_grade"], n))
+
+    picks = {"default": DEFAULT_HEIGHT, "straight": best(list(straights)),
+             "family": best(list(plans))}
+    fresh = {}
+    for name in picks.values():
+        if name not in fresh:
+            p = plans[name]
+            fresh[name] = _judged(scene, p["times"], p["q"], config, args.replays,
+                                  args.fresh_seed, fresh=True)
+    return {"scene": scene_name, "angle": angle, "drawn": drawn, "kept": kept,
+            "picks": {label: {"name": name, "picked": {k: plans[name][k] for k in
+                                                       ("p_success", "expected_grade")},
+                              "fresh": fresh[name], "member": plans[name]["member"]}
+                      for label, name in picks.items()}}
+
+
+def _cache(path: Path | None) -> dict:
+    if path is None or not path.exists():
+        return {}
+    return {(e["scene"], e["angle"]): e for e in map(json.loads, path.read_text().splitlines())}
+
+
+def summary(results: list[dict], config) -> None:
+    """The fresh P(success) of each pick and the paired differences with intervals."""
+    groups = {"all": results,
+              "bookshelf": [r for r in results if r["scene"].startswith("bookshelf")],
+              "fridge": [r for r in results if r["scene"].startswith("fridge")]}
+    for group, rows in groups.items():
+        if not rows:
+            continue
+        fresh = {k: np.array([r["picks"][k]["fresh"]["p_success"] for r in rows])
+                 for k in ("default", "straight", "family")}
+        print(f"\n{group}: {len(rows)} initializations; fresh P(success) default "
+              f"{fresh['default'].mean():.3f}, best straight {fresh['straight'].mean():.3f}, "
+              f"best of the family {fresh['family'].mean():.3f}")
+        for a, b in (("family", "default"), ("straight", "default"), ("family", "straight")):
+            d = fresh[a] - fresh[b]
+            low, high = bootstrap_interval(d, config.report)
+            print(f"  {a} - {b}: {d.mean():+.3f} [{low:+.3f}, {high:+.3f}] "
+                  f"({int((d > 0).sum())} better, {int((d == 0).sum())} same, "
+                  f"{int((d < 0).sum())} worse)")
+    bent = [r for r in results if r["picks"]["family"]["member"] is not None]
+    print(f"\nthe family's pick is a bent path in {len(bent)} of {len(results)}; members kept "
+          f"{sum(r['kept'] for r in results)} of {sum(r['drawn'] for r in results)} drawn")
+    for r in bent[:12]:
+        f = r["picks"]["family"]
+        print(f"  {r['scene']} angle {r['angle']}: {f['name']} {json.dumps(f['member'])} "
+              f"picked {f['picked']['p_success']:.2f}, fresh {f['fresh']['p_success']:.2f}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--db", action="append", required=True)
+    parser.add_argument("--samples", type=int, default=3)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--fresh-seed", type=int, default=1)
+    parser.add_argument("--replays", type=int, default=8)
+    parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--cache", type=Path)
+    parser.add_argument("--set", action="append", default=[], dest="overrides")
+    args = parser.parse_args(argv)
+    try:
+        config = load_config(None, args.overrides)
+        for db in args.db:
+            if not Path(db).exists():
+                raise InputError(f"{db}: no such store")
+        if args.samples < 1 or args.replays < 1 or args.fresh_seed == 0:
+            raise InputError("--samples and --replays must be >= 1, --fresh-seed not the "
+                             "judge's seed 0")
+    except InputError as exc:
+        print(exc, file=sys.stderr)
+        return 2
+    straights = load_straights(args.db)
+    done = _cache(args.cache)
+    todo = [(key, s, config, args) for key, s in sorted(straights.items())
+            if key not in done and DEFAULT_HEIGHT in s]
+    print(f"{len(straights)} initializations, {len(todo)} to run", flush=True)
+    with ProcessPoolExecutor(max(1, args.jobs)) as pool:
+        for i, result in enumerate(pool.map(ceiling_one, todo), 1):
+            done[(result["scene"], result["angle"])] = result
+            if args.cache is not None:
+                with args.cache.open("a") as f:
+                    f.write(json.dumps(result) + "\n")
+            print(f"  {i}/{len(todo)} {result['scene']} angle {result['angle']}: kept "
+                  f"{result['kept']}/{result['drawn']}, family pick "
+                  f"{result['picks']['family']['name']}", flush=True)
+    summary(list(done.values()), config)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -139,26 +139,36 @@ def approach_speeds(contacts: list[Contact], point_velocity) -> dict:
     step's ``contacts`` (both ways round) and ``point_velocity(contact)``: the W velocity of
     the actor's material point at ``contact.point`` under the commanded joint velocities."""
     out: dict = {}
+    cones: dict = {}
     for c in contacts:
         if c.b != ACTOR or c.a in (None, ACTOR):
             continue
         push = c.normal  # from the actor into the box
-        if not blocked(c.a, push, contacts, (c.a,)):
+        if not blocked(c.a, push, contacts, (c.a,), cones):
             continue
         speed = float(point_velocity(c) @ push)
         out[c.a] = max(out.get(c.a, 0.0), speed)
     return out
 
 
+_ANGLES = 2 * np.pi * np.arange(CONE_EDGES) / CONE_EDGES
+_COS, _SIN = np.cos(_ANGLES)[:, None], np.sin(_ANGLES)[:, None]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b of two 3-vectors (np.cross's arithmetic, without its overhead)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
 def _cone_generators(normal: np.ndarray, mu: float) -> np.ndarray:
     """(CONE_EDGES, 3) unit generators of the pyramid inscribed in the friction cone about
     ``normal`` with coefficient ``mu``."""
     helper = np.eye(3)[np.argmin(np.abs(normal))]
-    t1 = np.cross(normal, helper)
+    t1 = _cross(normal, helper)
     t1 /= np.linalg.norm(t1)
-    t2 = np.cross(normal, t1)
-    angles = 2 * np.pi * np.arange(CONE_EDGES) / CONE_EDGES
-    edges = normal[None, :] + mu * (np.cos(angles)[:, None] * t1 + np.sin(angles)[:, None] * t2)
+    t2 = _cross(normal, t1)
+    edges = normal[None, :] + mu * (_COS * t1 + _SIN * t2)
     return edges / np.linalg.norm(edges, axis=1, keepdims=True)
 
 
@@ -172,17 +182,29 @@ def held(direction: np.ndarray, generators: list[np.ndarray]) -> bool:
     return residual < CONE_TOLERANCE
 
 
-def blocked(box, push: np.ndarray, contacts: list[Contact], chain: tuple = ()) -> bool:
+def blocked(box, push: np.ndarray, contacts: list[Contact], chain: tuple = (),
+            cones: dict | None = None) -> bool:
     """Whether ``box``, pushed along the unit ``push``, cannot move in a rigid world: its
     static contacts' friction cones, and those of boxes it presses that are blocked in turn
-    (followed up to MAX_CHAIN boxes, never back along ``chain``), hold the push."""
+    (followed up to MAX_CHAIN boxes, never back along ``chain``), hold the push. ``cones``:
+    each contact's cone generators by id, filled as they are met (the chains meet the same
+    contacts many times)."""
+    cones = {} if cones is None else cones
     generators = []
     for c in contacts:
         if c.a != box or c.b == ACTOR:
             continue
         if c.b is None:
-            generators.extend(_cone_generators(c.normal, c.mu))
+            generators.extend(_generators(c, cones))
         elif c.b not in chain and len(chain) < MAX_CHAIN and float(c.normal @ push) < 0.0:
-            if blocked(c.b, -c.normal, contacts, chain + (c.b,)):
-                generators.extend(_cone_generators(c.normal, c.mu))
+            if blocked(c.b, -c.normal, contacts, chain + (c.b,), cones):
+                generators.extend(_generators(c, cones))
     return held(push, generators)
+
+
+def _generators(contact: Contact, cones: dict) -> np.ndarray:
+    """The contact's cone generators, from ``cones`` (by id) or computed and kept there."""
+    key = id(contact)
+    if key not in cones:
+        cones[key] = _cone_generators(contact.normal, contact.mu)
+    return cones[key]

@@ -3,7 +3,8 @@
 
     python benchmarks/phi_judge_gate.py --db RUN.db [--db RUN2.db ...]
         [--configurations NAME ...] [--planners baseline] [--set FIELD=VALUE ...]
-        [--members 8] [--jobs 2] [--cache FILE.jsonl] [--examples 5]
+        [--members 8] [--jobs 2] [--cache FILE.jsonl] [--examples 5] [--read K ...]
+        [--cached-only] [--readings jam press jam_or_press]
 
 Every distinct stored plan with robust replays (default: the baseline's plans, which no planner
 optimised against the score; the ``candidates`` tier holds 15 per initialization) is judged in
@@ -20,7 +21,11 @@ Printed:
 * the misread plans with the most weight (``--examples`` per confusion cell): their reasons
   on both sides, to trace where the score goes wrong.
 
-``--cache`` keeps each initialization's verdicts (one JSON line), so a stopped run resumes.
+``--cache`` keeps each initialization's verdicts (one JSON line), so a stopped run resumes;
+``--cached-only`` reads the cached initializations alone and judges nothing; ``--read`` also
+prints the pair agreement over the first K members of each verdict (K <= ``--members``).
+The rollouts keep their findings (`phi_judge.PhiFindings`), so every kinematic reading of
+``--readings`` is printed from the same rollouts.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ import json
 import sys
 from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -39,8 +45,8 @@ from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.experiments.paired import wilson_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import stored_plans
-from drake_clutter.planners.physics.phi_judge import judge_paths
-from drake_clutter.scene.grading import OUTCOME_KINDS
+from drake_clutter.planners.physics.phi_judge import PhiVerdict, judge_paths
+from drake_clutter.scene.grading import GRADE_CLASSES, OUTCOME_KINDS
 
 KINDS = OUTCOME_KINDS[:5]  # the five classes of Sec. III (no planner failures here)
 
@@ -102,6 +108,14 @@ def judge_all(plans, config, jobs: int, cache: Path | None) -> dict:
                     f.write(json.dumps(result) + "\n")
             print(f"  {i}/{len(todo)} {result['scene']} angle {result['angle']}", flush=True)
     return done
+
+
+def _first_members(v: dict, k: int) -> dict:
+    """A cached verdict over its first k members only."""
+    kinds = v["kinds"][:k]
+    return {"kinds": kinds, "reasons": v["reasons"][:k], "disturbed": v["disturbed"][:k],
+            "p_success": sum(x == "success" for x in kinds) / len(kinds),
+            "expected_grade": float(np.mean([GRADE_CLASSES[x] for x in kinds]))}
 
 
 def _phi_key(v: dict) -> tuple:
@@ -185,6 +199,10 @@ def main(argv=None) -> int:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--cache", type=Path)
     parser.add_argument("--examples", type=int, default=3)
+    parser.add_argument("--read", type=int, nargs="*", default=[])
+    parser.add_argument("--cached-only", action="store_true")
+    parser.add_argument("--readings", nargs="*", default=["jam", "press", "jam_or_press"],
+                        choices=["jam", "press", "jam_or_press"])
     args = parser.parse_args(argv)
     try:
         config = load_config(args.config, [*args.overrides, f"ensemble.members={args.members}",
@@ -196,8 +214,22 @@ def main(argv=None) -> int:
         print(exc, file=sys.stderr)
         return 2
     plans = load_plans(args.db, args.configurations, args.planners)
-    verdicts = judge_all(plans, config, args.jobs, args.cache)
-    print(f"\nphi {config.dynamics.engine}, {args.members} members, kinematic reading "
+    if args.cached_only:
+        verdicts = _load_cache(args.cache)
+        plans = {k: v for k, v in plans.items() if k in verdicts}
+    else:
+        verdicts = judge_all(plans, config, args.jobs, args.cache)
+    for reading in args.readings:
+        cfg = replace(config, ensemble=replace(config.ensemble, kinematic_reading=reading))
+        read = {key: {d: PhiVerdict.from_findings(v["findings"], cfg).to_data()
+                      for d, v in vs.items()} for key, vs in verdicts.items()}
+        report(plans, read, cfg, args)
+    return 0
+
+
+def report(plans, verdicts, config, args) -> None:
+    """The pair agreement, the confusion matrices and the misread plans of one reading."""
+    print(f"\n=== phi {config.dynamics.engine}, {args.members} members, kinematic reading "
           f"{config.ensemble.kinematic_reading}, hold {config.ensemble.judge_hold_knots} knots")
     for name, (agree, disagree, ties) in pair_agreement(plans, verdicts).items():
         n = agree + disagree
@@ -205,7 +237,15 @@ def main(argv=None) -> int:
         half = (agree + ties / 2) / max(n + ties, 1)
         print(f"pairs differing in robust P(success), ordered by phi's {name}: {agree}/{n} = "
               f"{agree / max(n, 1):.2f} [{low:.2f}, {high:.2f}]; {ties} ties "
-              f"(ties as half: {half:.2f})")
+              f"(of all {n + ties}: {agree / max(n + ties, 1):.2f} strictly, "
+              f"{half:.2f} with ties as half)")
+    for k in args.read:
+        first = {key: {d: _first_members(v, k) for d, v in vs.items()}
+                 for key, vs in verdicts.items()}
+        agree, disagree, ties = pair_agreement(plans, first)["p_success"]
+        low, high = wilson_interval(agree, agree + disagree)
+        print(f"  first {k} members, by P(success): {agree}/{agree + disagree} = "
+              f"{agree / max(agree + disagree, 1):.2f} [{low:.2f}, {high:.2f}]; {ties} ties")
     print_confusion(confusion(plans, verdicts, "nominal"), "classes: the judge's nominal replay")
     print_confusion(confusion(plans, verdicts, "mode"), "classes: the robust judge's most "
                                                         "frequent class")

@@ -4,6 +4,7 @@ by the robust judge and read on fresh seeds, against the straight lines' own cei
 
     python benchmarks/push_ceiling.py --db CANDIDATES.db [--samples 3] [--seed 0]
         [--fresh-seed 1] [--replays 8] [--jobs 2] [--cache FILE.jsonl] [--set FIELD=VALUE]
+        [--angles 4 7]
 
 The store holds the baseline's straight paths of each initialization (scene, angle) at several
 grasp heights, judged by the robust judge (`docs/specs/candidates_probe_half.yaml`: 5 heights).
@@ -21,7 +22,7 @@ nominal replay left out: it is the same world at any seed, and the pick saw it).
 mean fresh P(success) of each, and the paired differences family - default, straight - default
 and family - straight with seeded bootstrap intervals, overall and per environment; how often
 the family's pick is a bent path, and what its via-points were. ``--cache`` keeps one JSON line
-per initialization, so a stopped run resumes.
+per initialization, so a stopped run resumes; ``--angles`` keeps those angles' initializations.
 """
 
 from __future__ import annotations
@@ -163,6 +164,7 @@ def main(argv=None) -> int:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--cache", type=Path)
     parser.add_argument("--set", action="append", default=[], dest="overrides")
+    parser.add_argument("--angles", type=int, nargs="*", default=[])
     args = parser.parse_args(argv)
     try:
         config = load_config(None, args.overrides)
@@ -178,7 +180,8 @@ def main(argv=None) -> int:
     straights = load_straights(args.db)
     done = _cache(args.cache)
     todo = [(key, s, config, args) for key, s in sorted(straights.items())
-            if key not in done and DEFAULT_HEIGHT in s]
+            if key not in done and DEFAULT_HEIGHT in s
+            and (not args.angles or key[1] in args.angles)]
     print(f"{len(straights)} initializations, {len(todo)} to run", flush=True)
     with ProcessPoolExecutor(max(1, args.jobs)) as pool:
         for i, result in enumerate(pool.map(ceiling_one, todo), 1):
@@ -189,7 +192,7 @@ def main(argv=None) -> int:
             print(f"  {i}/{len(todo)} {result['scene']} angle {result['angle']}: kept "
                   f"{result['kept']}/{result['drawn']}, family pick "
                   f"{result['picks']['family']['name']}", flush=True)
-    summary(list(done.values()), config)
+    summary([r for r in done.values() if not args.angles or r["angle"] in args.angles], config)
     return 0
 
 

@@ -339,6 +339,6 @@ class EnsembleConfig:
     # worst fraction of the members the "cvar" score averages, unitless; ours
     cvar_fraction: float = bounded(0.5, gt=0.0, le=1.0)
     # the judge in phi's kinematic failure: "jam", "press" (box top at rest) or either; ours
-    kinematic_reading: Literal["jam", "press", "jam_or_press"] = "jam_or_press"
+    kinematic_reading: Literal["jam", "press", "jam_or_press"] = "jam"
     # knots the judge in phi holds the arm after Delta before reading the boxes, count; ours
     judge_hold_knots: int = bounded(5, ge=0)

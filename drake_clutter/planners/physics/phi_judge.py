@@ -8,7 +8,7 @@ and its mass and friction scaled from the planner's seeds ``[ensemble.seed, k]``
 judge's), and in each member:
 
 * **kinematic failure** - the plan leaves the PR2's joint or speed limits
-  (`trajectory.plan_limit_violation`, the judge's own check), or, by
+  (`trajectory.plan_limit_violation`, the judge's own check), phi fails to roll it out, or, by
   ``ensemble.kinematic_reading``: phi's jam measure reaches ``dynamics.jam_depth`` ("jam",
   `phi.jam`: the arm's commanded approach into a box a rigid world would not let move, largest
   knot of the path and the hold), the arm presses on a box's top deeper than
@@ -21,9 +21,10 @@ judge's), and in each member:
   ``evaluation.intrusion_tolerance`` (`grading.box_overlap`);
 * **partial success** - an obstacle tipped past ``evaluation.max_tilt``; else **success**;
 
-with the judge's precedence (`grading.classify`). A member where phi fails to roll the plan
-out reads as a kinematic failure (the plan cannot be simulated to completion). Over the K
-members: P(success) and the expected grade class, as the robust judge summarises its replays.
+with the judge's precedence (`grading.classify`). Each member's `PhiFindings` (the jam and
+the press are always measured) are kept beside its reading, so another reading of the same
+rollouts needs no new rollout (`PhiVerdict.from_findings`). Over the K members: P(success)
+and the expected grade class, as the robust judge summarises its replays.
 """
 
 from __future__ import annotations
@@ -53,6 +54,38 @@ from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
 
 @dataclass(frozen=True)
+class PhiFindings:
+    """What one member's rollout of a plan showed, before the classes' precedence: the plan's
+    joint or speed limit violation ("" for none), its deepest press on a box's top with the
+    boxes at rest (m), phi's largest jam measure over the path and the hold (m; None where
+    phi failed), whether phi failed, the boxes fallen, the obstacles tipped, why the target is
+    not grasped ("" when it is) and the boxes tipped or fallen (the target included)."""
+
+    limit: str = ""
+    press: float = 0.0
+    jam: float | None = 0.0
+    failed: bool = False
+    fallen: tuple[str, ...] = ()
+    tipped: tuple[str, ...] = ()
+    grasp: str = ""
+    disturbed: int = 0
+
+    def to_data(self) -> dict:
+        """JSON-ready dict."""
+        return {"limit": self.limit, "press": self.press, "jam": self.jam,
+                "failed": self.failed, "fallen": list(self.fallen), "tipped": list(self.tipped),
+                "grasp": self.grasp, "disturbed": self.disturbed}
+
+    @staticmethod
+    def from_data(data: dict) -> PhiFindings:
+        """Inverse of `to_data`."""
+        return PhiFindings(str(data["limit"]), float(data["press"]),
+                           None if data["jam"] is None else float(data["jam"]),
+                           bool(data["failed"]), tuple(data["fallen"]), tuple(data["tipped"]),
+                           str(data["grasp"]), int(data["disturbed"]))
+
+
+@dataclass(frozen=True)
 class PhiReading:
     """One member's reading of a plan: Sec. III's class (an `OutcomeKind` value), why, and
     the boxes tipped or fallen at the end of the hold."""
@@ -67,11 +100,38 @@ class PhiReading:
         return GRADE_CLASSES[self.kind]
 
 
+def kinematic_reason(findings: PhiFindings, config: Config) -> str:
+    """The kinematic failure the findings show under ``ensemble.kinematic_reading`` ("" for
+    none): a limit violation or a failed rollout always; a jam of at least
+    ``dynamics.jam_depth`` ("jam", "jam_or_press"); a press deeper than
+    ``physics.press_tolerance`` ("press", "jam_or_press")."""
+    reading = config.ensemble.kinematic_reading
+    if findings.limit:
+        return findings.limit
+    if findings.failed:
+        return "phi failed on the rollout"
+    if (reading in ("jam", "jam_or_press") and findings.jam is not None
+            and findings.jam >= config.dynamics.jam_depth):
+        return f"jam {findings.jam * 1e3:.1f} mm"
+    if reading in ("press", "jam_or_press") and findings.press > config.physics.press_tolerance:
+        return f"presses on a box top {findings.press * 1e3:.1f} mm"
+    return ""
+
+
+def reading_of(findings: PhiFindings, config: Config) -> PhiReading:
+    """Sec. III's class of the findings with the judge's precedence (`grading.classify`)."""
+    kind, why = classify(kinematic_reason(findings, config), findings.fallen, findings.grasp,
+                         findings.tipped)
+    return PhiReading(kind.value, why, findings.disturbed)
+
+
 @dataclass(frozen=True)
 class PhiVerdict:
-    """A plan's readings over the K members (member 0 the nominal world)."""
+    """A plan's readings over the K members (member 0 the nominal world) and the findings
+    they were read from."""
 
     readings: tuple[PhiReading, ...]
+    findings: tuple[PhiFindings, ...] = ()
 
     @property
     def p_success(self) -> float:
@@ -98,7 +158,16 @@ class PhiVerdict:
         return {"kinds": [r.kind for r in self.readings],
                 "reasons": [r.reason for r in self.readings],
                 "disturbed": [r.disturbed for r in self.readings],
-                "p_success": self.p_success, "expected_grade": self.expected_grade}
+                "p_success": self.p_success, "expected_grade": self.expected_grade,
+                "findings": [f.to_data() for f in self.findings]}
+
+    @staticmethod
+    def from_findings(findings, config: Config) -> PhiVerdict:
+        """The verdict of per-member findings (`PhiFindings` or their data) read with
+        ``config``."""
+        found = tuple(f if isinstance(f, PhiFindings) else PhiFindings.from_data(f)
+                      for f in findings)
+        return PhiVerdict(tuple(reading_of(f, config) for f in found), found)
 
 
 def box_fates(scene: Scene, geometry: ArmGeometry, final: dict[str, np.ndarray],
@@ -148,41 +217,32 @@ def grasp_reason(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray, p: np.
     return ("another box is in the gripper: " + ", ".join(intruders)) if intruders else ""
 
 
-def read_member(scene: Scene, geometry: ArmGeometry, q: np.ndarray, rollout: MemberRollout,
-                kinematic: str, config: Config) -> PhiReading:
-    """Sec. III's class of the knot path ``q`` (T + 1, 8) in one member's ``rollout`` (with
-    its jam measure); ``kinematic``: the plan-level kinematic failure already found ("" for
-    none). See the module docstring."""
+def member_findings(scene: Scene, geometry: ArmGeometry, q: np.ndarray,
+                    rollout: MemberRollout, limit: str, press: float,
+                    evaluation: EvaluationConfig) -> PhiFindings:
+    """What one member's ``rollout`` (with its jam measure) of the knot path ``q`` (T + 1, 8)
+    showed, with the plan's ``limit`` violation and ``press`` depth (m) found beforehand."""
     if rollout.final_boxes is None:
-        return PhiReading(OutcomeKind.KINEMATIC_FAILURE.value, "phi failed on the rollout")
-    reason = kinematic
-    if not reason and config.ensemble.kinematic_reading in ("jam", "jam_or_press"):
-        if rollout.jam is not None and rollout.jam >= config.dynamics.jam_depth:
-            reason = f"jam {rollout.jam * 1e3:.1f} mm"
-    evaluation = config.evaluation
+        return PhiFindings(limit, press, None, failed=True)
     p, R, fallen, tipped = box_fates(scene, geometry, rollout.final_boxes, evaluation)
     names = [b.name for b in scene.boxes]
-    grasp = grasp_reason(scene, geometry, q[-1], p, R, evaluation)
-    obstacles_tipped = [n for n, t in zip(names, tipped, strict=True) if t and n != scene.target]
-    kind, why = classify(reason, [n for n, f in zip(names, fallen, strict=True) if f], grasp,
-                         obstacles_tipped)
-    return PhiReading(kind.value, why, int(fallen.sum() + tipped.sum()))
+    return PhiFindings(
+        limit, press, rollout.jam, False,
+        tuple(n for n, f in zip(names, fallen, strict=True) if f),
+        tuple(n for n, t in zip(names, tipped, strict=True) if t and n != scene.target),
+        grasp_reason(scene, geometry, q[-1], p, R, evaluation),
+        int(fallen.sum() + tipped.sum()))
 
 
-def plan_kinematic_failure(scene: Scene, geometry: ArmGeometry, q: np.ndarray,
-                           times: np.ndarray, config: Config) -> str:
-    """The member-independent kinematic failures of a knot path (T + 1, 8) at ``times`` (s):
-    the judge's joint and speed limits, and with ``kinematic_reading`` "press" or
-    "jam_or_press" a press on a box's top (boxes at rest); "" for none."""
+def plan_checks(scene: Scene, geometry: ArmGeometry, q: np.ndarray, times: np.ndarray,
+                config: Config) -> tuple[str, float]:
+    """The member-independent checks of a knot path (T + 1, 8) at ``times`` (s): the judge's
+    joint and speed limits ("" when kept) and the deepest press on a box's top with the boxes
+    at rest (m, `penetration.path_depths`)."""
     violation = plan_limit_violation(Trajectory(np.asarray(times, float), q), config.evaluation)
-    if violation:
-        return violation
-    if config.ensemble.kinematic_reading in ("press", "jam_or_press"):
-        press, _ = path_depths(geometry, q, config.physics.press_substeps,
-                               config.physics.press_normal_z, (scene.target,))
-        if press > config.physics.press_tolerance:
-            return f"presses on a box top {press * 1e3:.1f} mm"
-    return ""
+    press, _ = path_depths(geometry, q, config.physics.press_substeps,
+                           config.physics.press_normal_z, (scene.target,))
+    return violation, float(press)
 
 
 def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, config: Config,
@@ -195,13 +255,11 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
     knot_time = float(np.diff(times[:2])[0])
     held = replace(config, physics=replace(config.physics,
                                            hold_knots=config.ensemble.judge_hold_knots))
-    plan_level = {name: plan_kinematic_failure(scene, geometry, q, times, config)
-                  for name, q in paths.items()}
-    jam = config.ensemble.kinematic_reading in ("jam", "jam_or_press")
-    readings: dict[str, list[PhiReading]] = {name: [] for name in paths}
+    checks = {name: plan_checks(scene, geometry, q, times, config) for name, q in paths.items()}
+    found: dict[str, list[PhiFindings]] = {name: [] for name in paths}
     for member in range(config.ensemble.members):
-        rollouts = member_rollouts(scene, paths, held, member, pool, knot_time, jam=jam)
+        rollouts = member_rollouts(scene, paths, held, member, pool, knot_time, jam=True)
         for name, q in paths.items():
-            readings[name].append(read_member(scene, geometry, q, rollouts[name],
-                                              plan_level[name], config))
-    return {name: PhiVerdict(tuple(r)) for name, r in readings.items()}
+            found[name].append(member_findings(scene, geometry, q, rollouts[name],
+                                               *checks[name], config.evaluation))
+    return {name: PhiVerdict.from_findings(f, config) for name, f in found.items()}

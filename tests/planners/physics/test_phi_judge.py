@@ -17,10 +17,12 @@ from drake_clutter.phi.state import pose_to_box_state, scene_box_states
 from drake_clutter.planners.physics.ensemble import FAILED, MemberRollout
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.phi_judge import (
+    PhiFindings,
     PhiReading,
     PhiVerdict,
     judge_paths,
-    read_member,
+    member_findings,
+    reading_of,
 )
 from drake_clutter.scene.grading import box_overlap, zone_extent
 
@@ -28,15 +30,15 @@ from drake_clutter.scene.grading import box_overlap, zone_extent
 
 
 def test_box_overlap_known_answers():
-    I = np.eye(3)
+    eye = np.eye(3)
     half = np.array([0.05, 0.05, 0.05])
-    assert box_overlap([0, 0, 0], I, half, [0.09, 0, 0], I, half) == pytest.approx(0.01)
-    assert box_overlap([0, 0, 0], I, half, [0.11, 0, 0], I, half) == 0.0
-    assert box_overlap([0, 0, 0], I, half, [0.09, 0.08, 0], I, half) == pytest.approx(0.01)
+    assert box_overlap([0, 0, 0], eye, half, [0.09, 0, 0], eye, half) == pytest.approx(0.01)
+    assert box_overlap([0, 0, 0], eye, half, [0.11, 0, 0], eye, half) == 0.0
+    assert box_overlap([0, 0, 0], eye, half, [0.09, 0.08, 0], eye, half) == pytest.approx(0.01)
     # A cube turned 45 deg about z, its edge 0.01 m into the other's face.
     R = Rotation.from_euler("z", 45, degrees=True).as_matrix()
     x = 0.05 + 0.05 * np.sqrt(2) - 0.01
-    assert box_overlap([0, 0, 0], I, half, [x, 0, 0], R, half) == pytest.approx(0.01)
+    assert box_overlap([0, 0, 0], eye, half, [x, 0, 0], R, half) == pytest.approx(0.01)
     # Separated only along an edge-edge axis: two cubes crossed at their edges.
     Ra = Rotation.from_euler("x", 45, degrees=True).as_matrix()
     Rb = Rotation.from_euler("y", 45, degrees=True).as_matrix()
@@ -93,10 +95,12 @@ def _moved(states, name, X):
     return out
 
 
-def _read(setting, final, kinematic="", jam=0.0, config=None):
+def _read(setting, final, limit="", jam=0.0, press=0.0, config=None):
     scene, q, geometry, _ = setting
-    return read_member(scene, geometry, q, MemberRollout({}, final, False, jam), kinematic,
-                       config or Config())
+    config = config or Config()
+    findings = member_findings(scene, geometry, q, MemberRollout({}, final, False, jam), limit,
+                               press, config.evaluation)
+    return reading_of(findings, config)
 
 
 def test_readings_give_every_class_of_sec_iii(setting):
@@ -122,14 +126,36 @@ def test_readings_give_every_class_of_sec_iii(setting):
                                                         - [0, 0, 0.05]))
     reading = _read(setting, final)
     assert reading.kind == "failure_to_grasp"
-    # A jam, a plan-level failure and a failed rollout are kinematic failures, above a fall.
+    # A jam, a press, a limit and a failed rollout are kinematic failures, above a fall.
     assert _read(setting, _moved(states, "large_stable", floor), jam=0.002).kind == \
         "kinematic_failure"
-    assert _read(setting, states, kinematic="presses").reason == "presses"
-    only_press = replace(Config(), ensemble=replace(Config().ensemble,
-                                                    kinematic_reading="press"))
-    assert _read(setting, states, jam=0.002, config=only_press).kind == "success"
-    assert read_member(scene, geometry, q, FAILED, "", Config()).kind == "kinematic_failure"
+    assert _read(setting, states, limit="too fast").reason == "too fast"
+
+    def reading(name):
+        return replace(Config(), ensemble=replace(Config().ensemble, kinematic_reading=name))
+
+    assert _read(setting, states, press=0.01, config=reading("jam_or_press")).reason.startswith(
+        "presses")
+
+    assert _read(setting, states, jam=0.002, config=reading("press")).kind == "success"
+    assert _read(setting, states, press=0.01, config=reading("jam")).kind == "success"
+    assert _read(setting, states, limit="too fast", config=reading("jam")).kind == \
+        "kinematic_failure"
+    failed = member_findings(scene, geometry, q, FAILED, "", 0.0, Config().evaluation)
+    assert failed.failed and reading_of(failed, Config()).kind == "kinematic_failure"
+
+
+def test_findings_round_trip_and_read_again_under_another_reading(setting):
+    scene, q, geometry, states = setting
+    findings = member_findings(scene, geometry, q, MemberRollout({}, states, False, 0.002),
+                               "", 0.01, Config().evaluation)
+    assert PhiFindings.from_data(findings.to_data()) == findings
+    verdict = PhiVerdict.from_findings([findings.to_data()] * 2, Config())
+    assert verdict.p_success == 0.0 and verdict.findings == (findings, findings)
+    assert verdict.readings[0].reason.startswith("jam")  # the default reading
+    press = replace(Config(), ensemble=replace(Config().ensemble, kinematic_reading="press"))
+    assert PhiVerdict.from_findings(verdict.findings, press).readings[0].reason.startswith(
+        "presses")
 
 
 def test_intruder_in_the_zone_fails_the_grasp_with_the_target_in_place(setting):

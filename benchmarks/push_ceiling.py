@@ -46,7 +46,7 @@ from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.approach import static_planning_world
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.push.family import FamilyRanges, draw_member, member_path
+from drake_clutter.planners.push.family import draw_member, member_path
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
 DEFAULT_HEIGHT = "h0.5"
@@ -82,7 +82,7 @@ def ceiling_one(job) -> dict:
     scene = stored_scene(scene_name, config)
     geometry = ArmGeometry(scene, "capsules")
     clearance = ShelfClearance(static_planning_world(scene))
-    ranges = FamilyRanges()
+    ranges = config.push
     plans = {name: {**s, "member": None} for name, s in straights.items()}
     drawn = kept = 0
     for name, s in sorted(straights.items()):

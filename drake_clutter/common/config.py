@@ -19,7 +19,12 @@ from pathlib import Path
 from typing import Literal
 
 from drake_clutter.common.accepts import bounded, check
-from drake_clutter.common.physics_config import DynamicsConfig, EnsembleConfig, PhysicsConfig
+from drake_clutter.common.physics_config import (
+    DynamicsConfig,
+    EnsembleConfig,
+    PhysicsConfig,
+    PushConfig,
+)
 from drake_clutter.common.typed_yaml import (
     InputError,
     apply_override,
@@ -394,6 +399,8 @@ class Config:
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
     # phi's ensemble of perturbed rollouts (beyond the paper), section; ours
     ensemble: EnsembleConfig = field(default_factory=EnsembleConfig)
+    # the push path family's draws (beyond the paper), section; ours
+    push: PushConfig = field(default_factory=PushConfig)
     # Meshcat replays of plans (beyond the paper), section; ours
     viz: VizConfig = field(default_factory=VizConfig)
     # statistics of the experiment report (beyond the paper), section; ours

@@ -342,3 +342,35 @@ class EnsembleConfig:
     kinematic_reading: Literal["jam", "press", "jam_or_press"] = "jam"
     # knots the judge in phi holds the arm after Delta before reading the boxes, count; ours
     judge_hold_knots: int = bounded(5, ge=0)
+
+
+@dataclass(frozen=True)
+class PushConfig:
+    """The push path family's draws (beyond the paper): all ours."""
+
+    # half-range of a via-point's sideways offset from the straight path (uniform), m; ours
+    lateral: float = bounded(0.10, ge=0.0)
+    # lowest vertical offset of a via-point above the straight path, m; ours
+    vertical_low: float = bounded(-0.01, le=0.0)
+    # highest vertical offset of a via-point above the straight path, m; ours
+    vertical_high: float = bounded(0.06, ge=0.0)
+    # earliest via-point time, a fraction of the path's duration, unitless; ours
+    knot_low: float = bounded(0.2, gt=0.0, lt=1.0)
+    # latest via-point time, a fraction of the path's duration, unitless; ours
+    knot_high: float = bounded(0.9, gt=0.0, lt=1.0)
+    # least progress along the straight path at a via-point, a fraction, unitless; ours
+    progress_low: float = bounded(0.2, ge=0.0, le=1.0)
+    # most progress along the straight path at a via-point, a fraction, unitless; ours
+    progress_high: float = bounded(0.95, ge=0.0, le=1.0)
+    # chance that a drawn member keeps the gripper closed until a drawn time, unitless; ours
+    closed_chance: float = bounded(0.3, ge=0.0, le=1.0)
+    # via-points per drawn member, count; ours
+    vias: int = bounded(2, ge=1)
+
+    def relations(self):
+        """(dotted field, holds, what it must be) between this section's fields."""
+        return [("push.knot_high", self.knot_low <= self.knot_high,
+                 f"at least push.knot_low ({self.knot_low:g})"),
+                ("push.progress_high", self.progress_low <= self.progress_high,
+                 f"at least push.progress_low ({self.progress_low:g})")]
+

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drake_clutter.common.config import PushConfig
 from drake_clutter.planners.physics.geometry import ArmGeometry
 
 ARM = 7  # arm joints; column 7 of a path is the gripper opening (m)
@@ -145,25 +146,11 @@ def member_path(geometry: ArmGeometry, straight: np.ndarray, member: PushPath,
     return path, worst
 
 
-@dataclass(frozen=True)
-class FamilyRanges:
-    """The half-ranges a member is drawn from: lateral and vertical offsets (m), the earliest
-    and latest via-point times and progresses (fractions), the chance of a closed gripper."""
-
-    lateral: float = 0.10
-    vertical_low: float = -0.01
-    vertical_high: float = 0.06
-    knot_low: float = 0.2
-    knot_high: float = 0.9
-    progress_low: float = 0.2
-    progress_high: float = 0.95
-    closed_chance: float = 0.3
-
-
-def draw_member(rng: np.random.Generator, ranges: FamilyRanges, vias: int = 2) -> PushPath:
-    """A random member with ``vias`` via-points: times and progresses sorted uniform draws,
-    offsets uniform in their ranges; the gripper closed until a uniform time with
+def draw_member(rng: np.random.Generator, ranges: PushConfig) -> PushPath:
+    """A random member with ``ranges.vias`` via-points: times and progresses sorted uniform
+    draws, offsets uniform in their ranges; the gripper closed until a uniform time with
     ``closed_chance``."""
+    vias = ranges.vias
     knots = np.sort(rng.uniform(ranges.knot_low, ranges.knot_high, vias))
     progress = np.sort(rng.uniform(ranges.progress_low, ranges.progress_high, vias))
     lateral = rng.uniform(-ranges.lateral, ranges.lateral, vias)

@@ -13,7 +13,6 @@ from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.push.family import (
-    FamilyRanges,
     PushPath,
     ViaPoint,
     draw_member,
@@ -81,7 +80,7 @@ def test_the_gripper_opens_when_asked(setting):
 
 def test_draws_are_seeded_and_mostly_feasible(setting):
     scene, geometry, trajectory = setting
-    ranges = FamilyRanges()
+    ranges = Config().push
     a = [draw_member(np.random.default_rng(4), ranges) for _ in range(2)]
     b = [draw_member(np.random.default_rng(4), ranges) for _ in range(2)]
     assert a == b

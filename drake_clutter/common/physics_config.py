@@ -369,8 +369,8 @@ class PushConfig:
 
     def relations(self):
         """(dotted field, holds, what it must be) between this section's fields."""
-        return [("push.knot_high", self.knot_low <= self.knot_high,
+        return [("knot_high", self.knot_low <= self.knot_high,
                  f"at least push.knot_low ({self.knot_low:g})"),
-                ("push.progress_high", self.progress_low <= self.progress_high,
+                ("progress_high", self.progress_low <= self.progress_high,
                  f"at least push.progress_low ({self.progress_low:g})")]
 

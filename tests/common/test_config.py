@@ -145,3 +145,11 @@ def test_the_comment_rule_catches_a_trailing_comment_and_an_issue_number():
     cited = source.replace("(phi steps knot_time / substeps), s; ours", "(issue #3)", 1)
     assert cited != source
     assert any("issue" in p for p in _comment_rule_violations(cited))
+
+
+@pytest.mark.parametrize("low, high", [("knot_low", "knot_high"),
+                                       ("progress_low", "progress_high")])
+def test_push_ranges_must_be_ordered(low, high):
+    with pytest.raises(ConfigError, match=f"push.{high}: must be at least push.{low}"):
+        load_config(None, [f"push.{low}=0.8", f"push.{high}=0.5"])
+    assert getattr(load_config(None, [f"push.{low}=0.5", f"push.{high}=0.5"]).push, high) == 0.5

@@ -34,8 +34,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RotationMatrix
 
 from drake_clutter.common.config import Config, EvaluationConfig
 from drake_clutter.planners import baseline
@@ -43,7 +41,8 @@ from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.physics.ensemble import member_rollouts
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.penetration import path_depths
-from drake_clutter.scene.grading import off_the_board, target_zone_reason, tilt_angle
+from drake_clutter.planners.physics.phi_judge import box_fates
+from drake_clutter.scene.grading import target_zone_reason
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate
 
@@ -61,13 +60,7 @@ def settled_class(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray,
     if final is None:
         return None
     names = [b.name for b in scene.boxes]
-    states = np.asarray([final[n][:7] if n in final else _pose_numbers(geometry.rest_pose(n))
-                         for n in names])
-    p = states[:, 4:7]
-    R_WB = np.array([RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix()
-                     for q in states[:, :4]])
-    fallen = off_the_board(scene, p)
-    tipped = ~fallen & (tilt_angle(R_WB) > evaluation.max_tilt)
+    p, R_WB, fallen, tipped = box_fates(scene, geometry, final, evaluation)
     X_WG = geometry.tool_jacobian(q_last)[0]
     i = names.index(scene.target)
     R_WG = X_WG.rotation().matrix()
@@ -76,11 +69,6 @@ def settled_class(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray,
     others = [k for k, n in enumerate(names) if n != scene.target]
     grade = 2 if fallen.any() or reason else 1 if tipped[others].any() else 0
     return grade + 0.01 * int(fallen.sum() + tipped.sum())
-
-
-def _pose_numbers(X_WB) -> np.ndarray:
-    """A pose as phi's state holds it: quaternion wxyz, then position in W (m)."""
-    return np.concatenate([X_WB.rotation().ToQuaternion().wxyz(), X_WB.translation()])
 
 
 def start_key(fraction: float, offset: float) -> str:

@@ -9,8 +9,9 @@ by the robust judge and read on fresh seeds, against the straight lines' own cei
 The store holds the baseline's straight paths of each initialization (scene, angle) at several
 grasp heights, judged by the robust judge (`docs/specs/candidates_probe_half.yaml`: 5 heights).
 Around each straight path ``--samples`` members of the push family are drawn
-(`planners.push.family`, seeded by ``[seed, initialization, height]``); the feasible ones are
-judged by the robust judge as the store's were (``--replays`` replays, its seed). Per
+(`planners.push.aim.draw`: aimed at the boxes the straight path meets with
+``push.aimed_chance``, else blind; seeded by ``[seed, initialization, height]``); the feasible
+ones are judged by the robust judge as the store's were (``--replays`` replays, its seed). Per
 initialization three plans are picked by that judgement (P(success), then expected grade):
 
 * ``default``: the straight path at the baseline's default height (no choice);
@@ -46,7 +47,8 @@ from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.approach import static_planning_world
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.push.family import draw_member, member_path
+from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
+from drake_clutter.planners.push.family import member_path
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
 DEFAULT_HEIGHT = "h0.5"
@@ -89,8 +91,10 @@ def ceiling_one(job) -> dict:
         rng = np.random.default_rng([args.seed, zlib.crc32(f"{scene_name}|{angle}".encode()),
                                      zlib.crc32(name.encode())])
         q = np.asarray(s["q"])
+        frame = approach_frame(geometry, q)
+        found = obstructions(geometry, q, frame, scene.target)
         for i in range(args.samples):
-            member = draw_member(rng, ranges)
+            member = draw(rng, frame, found, ranges)
             path, error = member_path(geometry, q, member)
             drawn += 1
             times = np.asarray(s["times"])

@@ -366,6 +366,18 @@ class PushConfig:
     closed_chance: float = bounded(0.3, ge=0.0, le=1.0)
     # via-points per drawn member, count; ours
     vias: int = bounded(2, ge=1)
+    # chance that a member is aimed at a box the straight path meets (else drawn blind); ours
+    aimed_chance: float = bounded(1.0, ge=0.0, le=1.0)
+    # chance that an aimed move pushes or passes the box toward its own side of the line; ours
+    own_side_chance: float = bounded(0.75, ge=0.0, le=1.0)
+    # chance that an aimed move pushes the box aside (else it goes around it), unitless; ours
+    aside_chance: float = bounded(0.5, ge=0.0, le=1.0)
+    # half the closed gripper's width across the approach (PR2 palm, ~0.05), m; ours
+    gripper_half_width: float = bounded(0.05, gt=0.0)
+    # how far before a box's near face an aimed move starts sideways, m; ours
+    aim_standoff: float = bounded(0.03, ge=0.0)
+    # range of the uniform extra clearance and depth of an aimed move, m; ours
+    aim_slack: float = bounded(0.04, ge=0.0)
 
     def relations(self):
         """(dotted field, holds, what it must be) between this section's fields."""

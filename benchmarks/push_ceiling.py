@@ -4,7 +4,7 @@ by the robust judge and read on fresh seeds, against the straight lines' own cei
 
     python benchmarks/push_ceiling.py --db CANDIDATES.db [--samples 3] [--seed 0]
         [--fresh-seed 1] [--replays 8] [--jobs 2] [--cache FILE.jsonl] [--set FIELD=VALUE]
-        [--angles 4 7]
+        [--angles 4 7] [--phi-members K [--phi-set FIELD=VALUE]]
 
 The store holds the baseline's straight paths of each initialization (scene, angle) at several
 grasp heights, judged by the robust judge (`docs/specs/candidates_probe_half.yaml`: 5 heights).
@@ -22,7 +22,11 @@ and each is read again on ``--replays`` fresh perturbed worlds (seed ``--fresh-s
 nominal replay left out: it is the same world at any seed, and the pick saw it). Printed: the
 mean fresh P(success) of each, and the paired differences family - default, straight - default
 and family - straight with seeded bootstrap intervals, overall and per environment; how often
-the family's pick is a bent path, and what its via-points were. ``--cache`` keeps one JSON line
+the family's pick is a bent path, and what its via-points were. With ``--phi-members K`` every
+plan is also judged in phi (`phi_judge.judge_paths`, K members, ``--phi-set`` on top of
+``--set``) and two more picks are read fresh: the judge in phi's best straight path
+(``phi_straight``) and its best of all (``phi_family``), what a search scored by the judge in
+phi over the same samples would return. ``--cache`` keeps one JSON line
 per initialization, so a stopped run resumes; ``--angles`` keeps those angles' initializations.
 """
 
@@ -47,6 +51,7 @@ from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.approach import static_planning_world
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.phi_judge import judge_paths
 from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
 from drake_clutter.planners.push.family import member_path
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
@@ -111,6 +116,8 @@ def ceiling_one(job) -> dict:
 
     picks = {"default": DEFAULT_HEIGHT, "straight": best(list(straights)),
              "family": best(list(plans))}
+    if args.phi_members > 0:
+        picks.update(_phi_picks(scene, geometry, plans, straights, args))
     fresh = {}
     for name in picks.values():
         if name not in fresh:
@@ -120,8 +127,28 @@ def ceiling_one(job) -> dict:
     return {"scene": scene_name, "angle": angle, "drawn": drawn, "kept": kept,
             "picks": {label: {"name": name, "picked": {k: plans[name][k] for k in
                                                        ("p_success", "expected_grade")},
-                              "fresh": fresh[name], "member": plans[name]["member"]}
+                              "fresh": fresh[name], "member": plans[name]["member"],
+                              "phi": plans[name].get("phi")}
                       for label, name in picks.items()}}
+
+
+def _phi_picks(scene, geometry, plans: dict, straights: dict, args) -> dict[str, str]:
+    """The plans the judge in phi would pick (``--phi-members`` members, ``--phi-set``):
+    among the straight paths (``phi_straight``) and among all (``phi_family``); every plan's
+    phi verdict is kept in ``plans``."""
+    config = load_config(None, [*args.overrides, *args.phi_overrides,
+                                f"ensemble.members={args.phi_members}"])
+    times = np.asarray(next(iter(plans.values()))["times"])
+    verdicts = judge_paths(scene, {n: np.asarray(p["q"]) for n, p in plans.items()}, times,
+                           config, geometry=geometry)
+    for name, verdict in verdicts.items():
+        plans[name]["phi"] = {"p_success": verdict.p_success,
+                              "expected_grade": verdict.expected_grade}
+
+    def best(names):
+        return min(names, key=lambda n: (*verdicts[n].key(), n))
+
+    return {"phi_straight": best(list(straights)), "phi_family": best(list(plans))}
 
 
 def _cache(path: Path | None) -> dict:
@@ -138,12 +165,21 @@ def summary(results: list[dict], config) -> None:
     for group, rows in groups.items():
         if not rows:
             continue
+        labels = [k for k in ("default", "straight", "family", "phi_straight", "phi_family")
+                  if all(k in r["picks"] for r in rows)]
         fresh = {k: np.array([r["picks"][k]["fresh"]["p_success"] for r in rows])
-                 for k in ("default", "straight", "family")}
+                 for k in labels}
         print(f"\n{group}: {len(rows)} initializations; fresh P(success) default "
               f"{fresh['default'].mean():.3f}, best straight {fresh['straight'].mean():.3f}, "
               f"best of the family {fresh['family'].mean():.3f}")
-        for a, b in (("family", "default"), ("straight", "default"), ("family", "straight")):
+        if "phi_family" in fresh:
+            print(f"  picked by the judge in phi: among the straight paths "
+                  f"{fresh['phi_straight'].mean():.3f}, among all {fresh['phi_family'].mean():.3f}")
+        for a, b in (("family", "default"), ("straight", "default"), ("family", "straight"),
+                     ("phi_straight", "default"), ("phi_family", "default"),
+                     ("phi_family", "phi_straight")):
+            if a not in fresh or b not in fresh:
+                continue
             d = fresh[a] - fresh[b]
             low, high = bootstrap_interval(d, config.report)
             print(f"  {a} - {b}: {d.mean():+.3f} [{low:+.3f}, {high:+.3f}] "
@@ -169,9 +205,13 @@ def main(argv=None) -> int:
     parser.add_argument("--cache", type=Path)
     parser.add_argument("--set", action="append", default=[], dest="overrides")
     parser.add_argument("--angles", type=int, nargs="*", default=[])
+    parser.add_argument("--phi-members", type=int, default=0)
+    parser.add_argument("--phi-set", action="append", default=[], dest="phi_overrides")
     args = parser.parse_args(argv)
     try:
         config = load_config(None, args.overrides)
+        load_config(None, [*args.overrides, *args.phi_overrides,
+                           f"ensemble.members={max(args.phi_members, 1)}"])
         for db in args.db:
             if not Path(db).exists():
                 raise InputError(f"{db}: no such store")

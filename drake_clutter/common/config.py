@@ -24,6 +24,7 @@ from drake_clutter.common.physics_config import (
     EnsembleConfig,
     PhysicsConfig,
     PushConfig,
+    PushSearchConfig,
 )
 from drake_clutter.common.typed_yaml import (
     InputError,
@@ -401,6 +402,8 @@ class Config:
     ensemble: EnsembleConfig = field(default_factory=EnsembleConfig)
     # the push path family's draws (beyond the paper), section; ours
     push: PushConfig = field(default_factory=PushConfig)
+    # the push planner's sampling search (beyond the paper), section; ours
+    push_search: PushSearchConfig = field(default_factory=PushSearchConfig)
     # Meshcat replays of plans (beyond the paper), section; ours
     viz: VizConfig = field(default_factory=VizConfig)
     # statistics of the experiment report (beyond the paper), section; ours

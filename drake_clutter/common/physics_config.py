@@ -386,3 +386,34 @@ class PushConfig:
                 ("progress_high", self.progress_low <= self.progress_high,
                  f"at least push.progress_low ({self.progress_low:g})")]
 
+
+
+@dataclass(frozen=True)
+class PushSearchConfig:
+    """The push planner's sampling search over the push family (beyond the paper): all ours."""
+
+    # phi's engine for the search's score, the judge in phi (its gate was measured in MuJoCo),
+    # choice; ours
+    engine: Literal["drake", "mujoco"] = "mujoco"
+    # ensemble members the search scores every path in (member 0 the scene), count; ours
+    members: int = bounded(4, ge=1)
+    # held-out members (the next ones) a bent path must also win on to replace its start, count;
+    # ours
+    veto_members: int = bounded(4, ge=1)
+    # family members drawn in the first round, over all starts, count; ours
+    samples: int = bounded(12, ge=0)
+    # rounds of the search (the later ones perturb the best bent paths), count; ours
+    rounds: int = bounded(2, ge=1)
+    # best bent paths perturbed in each later round, count; ours
+    elite: int = bounded(2, ge=1)
+    # perturbations drawn per elite path in a later round, count; ours
+    perturbations: int = bounded(3, ge=1)
+    # standard deviation of a perturbation's sideways and vertical via-point offsets, m; ours
+    jitter_offset: float = bounded(0.015, ge=0.0)
+    # standard deviation of a perturbation's via-point progress and time, fraction; ours
+    jitter_progress: float = bounded(0.04, ge=0.0)
+    # P(success) in phi of the best start at which the search stops (nothing to gain), unitless;
+    # ours
+    stop_at: float = bounded(1.0, ge=0.0, le=1.0)
+    # seed of the search's draws (a candidate draws from [seed, angle index]), integer; ours
+    seed: int = bounded(0, ge=0)

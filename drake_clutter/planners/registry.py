@@ -1,10 +1,10 @@
 """The planners every caller picks from: one `Planner` interface, one registry entry each.
 
-A planner turns a scene and the configuration into one `Candidate` per approach angle
-(Sec. IV: the angles of `approach.approach_angles`, in order). Some planners refine the
-candidates of another (``starts_from``): the physics planner (Sec. V) optimises the
-baseline's (Sec. IV). `run_planners` runs the planners asked for, each of their starting planners
-once, and hands each its start.
+A planner turns a scene and the configuration into one `Candidate` per approach angle (Sec. IV:
+the angles of `approach.approach_angles`, in order). Some planners refine the candidates of
+another (``starts_from``): the physics planner (Sec. V) optimises the baseline's (Sec. IV), and
+the push planner searches from them. `run_planners` runs the planners asked for, each of their
+starting planners once, and hands each its start.
 
 Angles: ``angles=None`` plans every angle of ``config.baseline`` in a row (the baseline seeds
 each angle's IK with its neighbour's solution); a list of indices plans each listed angle
@@ -26,7 +26,8 @@ from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate
 
-PlannerName = Literal["baseline", "physics"]  # the registry's keys, as typed YAML reads them
+# the registry's keys, as typed YAML reads them
+PlannerName = Literal["baseline", "physics", "push"]
 
 
 class Planner(Protocol):
@@ -103,7 +104,35 @@ class PhysicsPlanner:
         return stages_table(candidates)
 
 
-REGISTRY: dict[str, Planner] = {p.name: p for p in (BaselinePlanner(), PhysicsPlanner())}
+class PushPlanner:
+    """Beyond the paper: a sampling search over paths that can push, scored by the judge in
+    phi, from the baseline's paths at several grasp heights."""
+
+    name = "push"
+    starts_from = "baseline"
+
+    def check(self, config: Config, file: str = "<configuration>") -> None:
+        """`config.check_config` on the whole configuration."""
+        check_config(config, file)
+
+    def plan(self, scene: Scene, config: Config, angles: Sequence[int] | None = None,
+             start: list[Candidate] | None = None) -> list[Candidate]:
+        """`push.planner.plan_push` on ``start`` (the baseline's candidates)."""
+        from drake_clutter.planners.push.planner import plan_push
+
+        if start is None:
+            start = REGISTRY["baseline"].plan(scene, config, angles)
+        return plan_push(scene, config, start)
+
+    def table(self, candidates: list[Candidate]) -> str:
+        """`push.planner.push_table`: the path chosen, P(success) in phi, the seconds."""
+        from drake_clutter.planners.push.planner import push_table
+
+        return push_table(candidates)
+
+
+REGISTRY: dict[str, Planner] = {p.name: p for p in (BaselinePlanner(), PhysicsPlanner(),
+                                                    PushPlanner())}
 
 
 def planner_names() -> tuple[str, ...]:

@@ -6,8 +6,8 @@ baseline by its kinematic cost at the end of the path optimisation (Sec. IV: w_s
 c_static_hull + w_vel x c_vel), the physics planner by the objective in phi (or the ensemble
 score) of the path it chose (``details["select"]``; for plans made before that choice
 existed, its last phi stage's final objective; with neither - no phi stage and no choice in
-phi - the baseline's score of the path it started from, ``details["start_score"]``). Lower is
-better.
+phi - the baseline's score of the path it started from, ``details["start_score"]``), the
+push planner by its chosen path's P(success) in phi (`_push_score`). Lower is better.
 """
 
 from __future__ import annotations
@@ -26,6 +26,8 @@ def selection_score(planner: str, details: dict, baseline: BaselineConfig | None
             return None
         return (weights.w_static_hull * float(details.get("c_static_hull", [0.0])[-1])
                 + weights.w_vel * float(details["c_vel"][-1]))
+    if planner == "push":
+        return _push_score(details)
     select = details.get("select") or {}
     value = (select.get("objectives") or {}).get(select.get("chosen"))
     if not select:
@@ -49,3 +51,13 @@ def selected_index(candidates: list[Candidate], baseline: BaselineConfig | None 
         if score is not None and (best_score is None or score < best_score):
             best, best_score = i, score
     return best
+
+
+def _push_score(details: dict) -> float | None:
+    """The push planner's score of its chosen path: minus its P(success) in phi, plus a
+    hundredth of its expected grade (ties)."""
+    search = details.get("search") or {}
+    verdict = (search.get("verdicts") or {}).get(details.get("chosen"))
+    if verdict is None:
+        return None
+    return -float(verdict["p_success"]) + 0.01 * float(verdict["expected_grade"])

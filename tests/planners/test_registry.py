@@ -34,7 +34,7 @@ from drake_clutter.trajectory import (
 
 
 def test_the_registry_lists_the_planners_typed_yaml_accepts():
-    assert planner_names() == ("baseline", "physics")
+    assert planner_names() == ("baseline", "physics", "push")
     assert set(get_args(PlannerName)) == set(planner_names())
     for name in planner_names():
         planner = get_planner(name)

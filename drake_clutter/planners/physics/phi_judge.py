@@ -29,6 +29,7 @@ and the expected grade class, as the robust judge summarises its replays.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -246,18 +247,19 @@ def plan_checks(scene: Scene, geometry: ArmGeometry, q: np.ndarray, times: np.nd
 
 
 def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, config: Config,
-                pool=None, geometry: ArmGeometry | None = None) -> dict[str, PhiVerdict]:
-    """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's
-    ``ensemble.members`` members; all paths of one call meet the same members, each member's
-    phi pruned for all of them and rolled out from each path's own start. ``geometry``: the
-    capsule arm with the boxes at rest (built here if None)."""
+                pool=None, geometry: ArmGeometry | None = None,
+                members: Sequence[int] | None = None) -> dict[str, PhiVerdict]:
+    """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's ensemble
+    members ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet
+    the same members, each member's phi pruned for all of them and rolled out from each path's
+    own start. ``geometry``: the capsule arm with the boxes at rest (built here if None)."""
     geometry = geometry or ArmGeometry(scene, "capsules")
     knot_time = float(np.diff(times[:2])[0])
     held = replace(config, physics=replace(config.physics,
                                            hold_knots=config.ensemble.judge_hold_knots))
     checks = {name: plan_checks(scene, geometry, q, times, config) for name, q in paths.items()}
     found: dict[str, list[PhiFindings]] = {name: [] for name in paths}
-    for member in range(config.ensemble.members):
+    for member in range(config.ensemble.members) if members is None else members:
         rollouts = member_rollouts(scene, paths, held, member, pool, knot_time, jam=True)
         for name, q in paths.items():
             found[name].append(member_findings(scene, geometry, q, rollouts[name],

@@ -1,0 +1,80 @@
+"""The push planner (beyond the paper): per approach angle, the baseline's straight path at
+each grasp height and yaw of ``physics.grasp_heights`` and ``physics.approach_offsets``
+(`grasp_height.height_candidates`), then the sampling search over the push family from them,
+scored by the judge in phi (`search.run_search`).
+
+One capsule arm with the boxes at rest and one shelf-clearance world are built per scene and
+serve every angle. A candidate the baseline could not plan comes back as it is, relabelled
+"push"; a search that finds nothing better returns its best start, recorded as such.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from drake_clutter.common.config import Config, check_config
+from drake_clutter.planners.approach import approach_angles, static_planning_world
+from drake_clutter.planners.clearance import ShelfClearance
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.grasp_height import height_candidates, start_key
+from drake_clutter.planners.push.search import run_search
+from drake_clutter.scene.scenes import Scene
+from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
+
+
+def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Candidate]:
+    """One "push" Candidate per baseline candidate in ``start``, in order (module
+    docstring)."""
+    check_config(config)
+    geometry = ArmGeometry(scene, "capsules")
+    clearance = ShelfClearance(static_planning_world(scene))
+    alphas = approach_angles(config.baseline)
+    out = []
+    for candidate in start:
+        if not candidate.ok:
+            out.append(Candidate(candidate.alpha, candidate.status, candidate.reason,
+                                 candidate.trajectory, "push", dict(candidate.timings),
+                                 dict(candidate.details)))
+            continue
+        index = int(np.argmin(np.abs(alphas - candidate.alpha)))
+        out.append(push_candidate(scene, candidate, config, geometry, clearance, index))
+    return out
+
+
+def push_candidate(scene: Scene, candidate: Candidate, config: Config, geometry: ArmGeometry,
+                   clearance: ShelfClearance, index: int) -> Candidate:
+    """The push planner on one baseline candidate (angle ``index`` of the baseline's)."""
+    tic = time.perf_counter()
+    found = height_candidates(scene, candidate, config)
+    starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
+    timings = {"heights": time.perf_counter() - tic}
+    tic = time.perf_counter()
+    result = run_search(scene, starts, candidate.trajectory.times, config, geometry, clearance,
+                        index)
+    timings["search"] = time.perf_counter() - tic
+    details = {"initialization": candidate.planner, "search": result.record,
+               "chosen": result.name}
+    trajectory = Trajectory(candidate.trajectory.times.copy(), result.q)
+    return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
+                     timings=timings, details=details)
+
+
+def push_table(candidates: list[Candidate]) -> str:
+    """A text table, one row per angle: the path chosen, its and the best start's P(success)
+    in phi, the members drawn and kept, and the seconds."""
+    rows = [f"{'alpha':>7} {'chosen':>22} {'P phi':>6} {'start':>6} {'kept':>9} {'s':>6}"]
+    for c in candidates:
+        search = (c.details or {}).get("search")
+        if not c.ok or not search:
+            rows.append(f"{c.alpha:7.3f} {c.status.value:>22}")
+            continue
+        verdicts = search["verdicts"]
+        counts = search["counts"]
+        rows.append(f"{c.alpha:7.3f} {c.details['chosen']:>22} "
+                    f"{verdicts[c.details['chosen']]['p_success']:6.2f} "
+                    f"{verdicts[search['best_start']]['p_success']:6.2f} "
+                    f"{counts['feasible']:>4}/{counts['drawn']:<4} "
+                    f"{sum(c.timings.values()):6.1f}")
+    return "\n".join(rows)

@@ -1,0 +1,220 @@
+"""The push planner's search (beyond the paper): predictive sampling over the push family,
+scored by the judge in phi, with a veto on members it never saw.
+
+Given straight start paths of one approach angle (the baseline's at several grasp heights and
+yaws, knots at the same times, the first the baseline's own), in rounds (``push_search``):
+
+1. **Round 1**: ``samples`` family members (`aim.draw`: aimed at the boxes each start's path
+   meets) are drawn around the starts in turn, each built (`family.member_path`) and kept if
+   feasible: every knot on its target within 1 mm, the judge's joint and speed limits
+   (`trajectory.plan_limit_violation`), the baseline's dense shelf check. The starts and the
+   kept members are judged together in phi (`phi_judge.judge_paths`: members 0 .. K - 1, K =
+   ``push_search.members``, phi's engine ``push_search.engine``).
+2. **Later rounds**: the ``elite`` best bent paths so far each get ``perturbations`` copies
+   with their via-points jittered (`perturb`), built, checked and judged in the same members
+   (their verdicts compare with the earlier ones: same worlds, same seeds).
+3. **The pick**: the best verdict (`PhiVerdict.key`: P(success), expected grade, boxes
+   disturbed; ties to the earlier path, starts first).
+4. **The veto**: a bent pick replaces the best start only if its verdict on ``veto_members``
+   members the search never saw (indices K .. K + veto - 1) is strictly better than the best
+   start's there. Otherwise the best start is returned; that is also the answer when every
+   start reads P(success) >= ``stop_at`` already (no member drawn) or no member is feasible.
+
+The search never fails the plan: a member that cannot be built is dropped and counted, and a
+rollout phi cannot finish reads as a kinematic failure (`judge_paths`). Every draw is seeded
+with ``[push_search.seed, angle index, round]``. Bullet and the mesh arm are not used.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from drake_clutter.common.config import Config, PushSearchConfig
+from drake_clutter.planners.clearance import ShelfClearance, dense_check
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.phi_judge import PhiVerdict, judge_paths
+from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
+from drake_clutter.planners.push.family import PushPath, ViaPoint, member_path
+from drake_clutter.scene.scenes import Scene
+from drake_clutter.trajectory import Trajectory, plan_limit_violation
+
+POSE_LIMIT = 1e-3  # m or rad: a member whose knots miss their targets by more is dropped
+
+
+@dataclass(frozen=True)
+class Sample:
+    """A path the search judged: its start's name, its member (None: the start itself) and
+    its knots (T + 1, 8)."""
+
+    start: str
+    member: PushPath | None
+    q: np.ndarray
+
+
+@dataclass(frozen=True)
+class SearchResult:
+    """The path returned (T + 1, 8), its name (a start's or "<start>/r<round>m<i>") and the
+    record (JSON-ready: every judged path's verdict summary, the counts, the veto, seconds)."""
+
+    name: str
+    q: np.ndarray
+    record: dict
+
+
+def perturb(rng: np.random.Generator, member: PushPath, search: PushSearchConfig
+            ) -> PushPath:
+    """``member`` with each via-point's time and progress (and the gripper's opening time,
+    if it has one) moved by N(0, jitter_progress) and its offsets by N(0, jitter_offset) (m);
+    times and progresses kept in [0.02, 0.98] and the times in order."""
+    vias = []
+    for v in member.vias:
+        knot, progress = np.clip(np.array([v.knot, v.progress])
+                                 + rng.normal(0.0, search.jitter_progress, 2), 0.02, 0.98)
+        lateral, vertical = np.array([v.lateral, v.vertical]) + rng.normal(
+            0.0, search.jitter_offset, 2)
+        vias.append(ViaPoint(float(knot), float(progress), float(lateral), float(vertical)))
+    knots = sorted(v.knot for v in vias)
+    vias = [replace(v, knot=k) for v, k in zip(vias, knots, strict=True)]
+    open_at = (float(np.clip(member.open_at + rng.normal(0.0, search.jitter_progress), 0.02,
+                             0.98)) if member.open_at else 0.0)
+    return PushPath(tuple(vias), open_at)
+
+
+class Search:
+    """One approach angle's search (module docstring): the starts, the worlds to check and
+    judge them in, and every path judged so far."""
+
+    def __init__(self, scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray,
+                 config: Config, geometry: ArmGeometry, clearance: ShelfClearance):
+        self.scene, self.times, self.config = scene, np.asarray(times, float), config
+        self.geometry, self.clearance = geometry, clearance
+        search = config.push_search
+        self.judge_config = replace(
+            config, dynamics=replace(config.dynamics, engine=search.engine),
+            ensemble=replace(config.ensemble, members=search.members))
+        self.samples = {name: Sample(name, None, np.asarray(q, float))
+                        for name, q in starts.items()}
+        self.verdicts: dict[str, PhiVerdict] = {}
+        self.counts = {"drawn": 0, "feasible": 0}
+        self._frames = {}
+
+    def feasible(self, q: np.ndarray, error: float) -> bool:
+        """Whether a member's knots (T + 1, 8) reached their targets and pass the limits and
+        the shelf check."""
+        return (error <= POSE_LIMIT
+                and not plan_limit_violation(Trajectory(self.times, q), self.config.evaluation)
+                and dense_check(self.clearance, q[:, :7], self.config.baseline).passed)
+
+    def add(self, name: str, start: str, member: PushPath) -> bool:
+        """Builds ``member`` about the start path ``start`` and keeps it as ``name`` if
+        feasible."""
+        self.counts["drawn"] += 1
+        try:
+            q, error = member_path(self.geometry, self.samples[start].q, member)
+        except (RuntimeError, ValueError):
+            return False
+        if not self.feasible(q, error):
+            return False
+        self.counts["feasible"] += 1
+        self.samples[name] = Sample(start, member, q)
+        return True
+
+    def judge(self, names: list[str], members=None) -> dict[str, PhiVerdict]:
+        """The verdicts of the named paths in the search's members (or ``members``)."""
+        if not names:
+            return {}
+        return judge_paths(self.scene, {n: self.samples[n].q for n in names}, self.times,
+                           self.judge_config, geometry=self.geometry, members=members)
+
+    def frame(self, start: str):
+        """The approach frame and the met boxes of a start path (computed once)."""
+        if start not in self._frames:
+            q = self.samples[start].q
+            frame = approach_frame(self.geometry, q)
+            self._frames[start] = (frame, obstructions(self.geometry, q, frame,
+                                                       self.scene.target))
+        return self._frames[start]
+
+    def best(self, names) -> str:
+        """The best judged path among ``names`` (ties to the earlier)."""
+        order = list(self.samples)
+        return min(names, key=lambda n: (*self.verdicts[n].key(), order.index(n)))
+
+
+def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, config: Config,
+               geometry: ArmGeometry, clearance: ShelfClearance, index: int = 0
+               ) -> SearchResult:
+    """The search of one approach angle (``index``, seeds the draws) from the straight
+    ``starts`` (name: knots (T + 1, 8), the first the baseline's; knots at ``times`` s);
+    see the module docstring."""
+    tic = time.perf_counter()
+    cfg = config.push_search
+    s = Search(scene, starts, times, config, geometry, clearance)
+    s.verdicts.update(s.judge(list(starts)))
+    best_start = s.best(list(starts))
+    record = {"starts": list(starts), "best_start": best_start, "rounds": []}
+    if s.verdicts[best_start].p_success < cfg.stop_at:
+        for round_ in range(cfg.rounds):
+            rng = np.random.default_rng([cfg.seed, index, round_])
+            names = (_draw_round(s, rng, list(starts)) if round_ == 0
+                     else _perturb_round(s, rng, round_))
+            s.verdicts.update(s.judge(names))
+            record["rounds"].append({"judged": len(names)})
+    pick = s.best(list(s.verdicts))
+    chosen, veto = _veto(s, pick, best_start)
+    record.update(counts=s.counts, pick=pick, veto=veto, chosen=chosen,
+                  seconds=time.perf_counter() - tic,
+                  verdicts={n: _summary(v, s.samples[n]) for n, v in s.verdicts.items()})
+    return SearchResult(chosen, s.samples[chosen].q, record)
+
+
+def _draw_round(s: Search, rng: np.random.Generator, starts: list[str]) -> list[str]:
+    """Round 1: ``samples`` members drawn around the starts in turn; the kept names."""
+    kept = []
+    for i in range(s.config.push_search.samples):
+        start = starts[i % len(starts)]
+        frame, found = s.frame(start)
+        name = f"{start}/r0m{i}"
+        if s.add(name, start, draw(rng, frame, found, s.config.push)):
+            kept.append(name)
+    return kept
+
+
+def _perturb_round(s: Search, rng: np.random.Generator, round_: int) -> list[str]:
+    """A later round: the elite bent paths each perturbed; the kept names."""
+    cfg = s.config.push_search
+    bent = [n for n in s.verdicts if s.samples[n].member is not None]
+    elite = sorted(bent, key=lambda n: (*s.verdicts[n].key(), list(s.samples).index(n)))
+    kept = []
+    for e, name in enumerate(elite[:cfg.elite]):
+        sample = s.samples[name]
+        for j in range(cfg.perturbations):
+            new = f"{sample.start}/r{round_}m{e * cfg.perturbations + j}"
+            if s.add(new, sample.start, perturb(rng, sample.member, cfg)):
+                kept.append(new)
+    return kept
+
+
+def _veto(s: Search, pick: str, best_start: str) -> tuple[str, dict | None]:
+    """The path returned: ``pick`` if it is a start, or if it also beats ``best_start`` on
+    the held-out members; else ``best_start``. The veto's verdicts (None: no veto run)."""
+    if s.samples[pick].member is None:
+        return pick, None
+    cfg = s.config.push_search
+    held_out = range(cfg.members, cfg.members + cfg.veto_members)
+    verdicts = s.judge([pick, best_start], members=held_out)
+    wins = verdicts[pick].key() < verdicts[best_start].key()
+    return (pick if wins else best_start), {
+        "members": list(held_out), "wins": wins,
+        **{n: {"p_success": v.p_success, "expected_grade": v.expected_grade}
+           for n, v in verdicts.items()}}
+
+
+def _summary(verdict: PhiVerdict, sample: Sample) -> dict:
+    """A judged path's line in the record."""
+    return {"p_success": verdict.p_success, "expected_grade": verdict.expected_grade,
+            "kinds": [r.kind for r in verdict.readings],
+            "member": None if sample.member is None else sample.member.to_data()}

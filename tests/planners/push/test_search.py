@@ -1,0 +1,125 @@
+"""The push planner's search: perturbations keep a member well formed; the pick and the veto
+follow the judge in phi's verdicts (a scripted judge); a real search on a shipped scene
+returns a judged path, seeded, and never fails the plan; the planner is registered."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drake_clutter.common.config import Config, load_config
+from drake_clutter.planners.approach import static_planning_world
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.clearance import ShelfClearance
+from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.physics.phi_judge import PhiReading, PhiVerdict
+from drake_clutter.planners.push import search as search_module
+from drake_clutter.planners.push.family import PushPath, ViaPoint
+from drake_clutter.planners.push.search import perturb, run_search
+from drake_clutter.planners.registry import get_planner
+from drake_clutter.scene import scenes
+
+SMALL = ["push_search.samples=3", "push_search.rounds=2", "push_search.members=2",
+         "push_search.veto_members=2", "push_search.elite=1", "push_search.perturbations=2"]
+
+
+@pytest.fixture(scope="module")
+def setting():
+    scene = scenes.load_shipped_scene("fig6_push_sideways")
+    (candidate,) = plan_baseline(scene, Config().baseline, alphas=[0.0])
+    assert candidate.ok, candidate.reason
+    return (scene, candidate.trajectory, ArmGeometry(scene, "capsules"),
+            ShelfClearance(static_planning_world(scene)))
+
+
+def _verdict(*kinds: str) -> PhiVerdict:
+    return PhiVerdict(tuple(PhiReading(k, "") for k in kinds))
+
+
+def test_a_perturbation_keeps_the_member_in_order_and_in_range():
+    member = PushPath((ViaPoint(0.3, 0.4, 0.05, 0.0), ViaPoint(0.35, 0.5, -0.02, 0.01)), 0.6)
+    search = replace(Config().push_search, jitter_progress=0.2, jitter_offset=0.02)
+    rng = np.random.default_rng(0)
+    moved = [perturb(rng, member, search) for _ in range(50)]
+    for m in moved:
+        knots = [v.knot for v in m.vias]
+        assert knots == sorted(knots) and 0.02 <= knots[0] and knots[-1] <= 0.98
+        assert all(0.02 <= v.progress <= 0.98 for v in m.vias) and 0.02 <= m.open_at <= 0.98
+    assert len({m.vias[0].lateral for m in moved}) == 50
+    again = perturb(np.random.default_rng(0), member, search)
+    assert again == moved[0]
+    assert perturb(rng, PushPath(member.vias), search).open_at == 0.0
+
+
+def test_the_veto_keeps_the_start_unless_the_pick_wins_on_unseen_members(setting, monkeypatch):
+    scene, trajectory, geometry, clearance = setting
+    config = load_config(None, SMALL)
+    seen_members = []
+
+    def scripted(wins_held_out):
+        def judge(scene, paths, times, config, pool=None, geometry=None, members=None):
+            seen_members.append(None if members is None else list(members))
+            held_out = members is not None
+            out = {}
+            for name in paths:
+                bent = "/" in name
+                if not held_out:  # in the search's members every bent path reads success
+                    out[name] = _verdict("success", "success") if bent else _verdict(
+                        "failure_to_grasp", "kinematic_failure")
+                else:
+                    good = bent == wins_held_out
+                    out[name] = _verdict("success", "failure_to_grasp") if good else _verdict(
+                        "failure_to_grasp", "failure_to_grasp")
+            return out
+        return judge
+
+    starts = {"a": trajectory.q, "b": trajectory.q.copy()}
+    monkeypatch.setattr(search_module, "judge_paths", scripted(True))
+    result = run_search(scene, starts, trajectory.times, config, geometry, clearance)
+    assert "/" in result.name and result.record["veto"]["wins"] is True
+    assert result.record["pick"] == result.name and result.record["best_start"] == "a"
+    assert seen_members[-1] == [2, 3]  # the held-out members follow the search's
+    monkeypatch.setattr(search_module, "judge_paths", scripted(False))
+    result = run_search(scene, starts, trajectory.times, config, geometry, clearance)
+    assert result.name == "a" and result.record["veto"]["wins"] is False
+    assert "/" in result.record["pick"]
+    np.testing.assert_array_equal(result.q, trajectory.q)
+
+
+def test_a_start_that_reads_success_stops_the_search(setting, monkeypatch):
+    scene, trajectory, geometry, clearance = setting
+    monkeypatch.setattr(search_module, "judge_paths",
+                        lambda scene, paths, *a, **k: {n: _verdict("success") for n in paths})
+    result = run_search(scene, {"a": trajectory.q}, trajectory.times,
+                        load_config(None, SMALL), geometry, clearance)
+    assert result.name == "a" and result.record["rounds"] == []
+    assert result.record["counts"]["drawn"] == 0 and result.record["veto"] is None
+
+
+def test_a_real_search_returns_a_judged_path_and_is_seeded(setting):
+    scene, trajectory, geometry, clearance = setting
+    config = load_config(None, [*SMALL, "push_search.rounds=1", "push_search.samples=2"])
+    first = run_search(scene, {"0.5": trajectory.q}, trajectory.times, config, geometry,
+                       clearance)
+    record = first.record
+    assert record["counts"]["drawn"] == 2 and record["chosen"] == first.name
+    assert set(record["verdicts"]) >= {"0.5", first.name}
+    for verdict in record["verdicts"].values():
+        assert len(verdict["kinds"]) == 2 and 0.0 <= verdict["p_success"] <= 1.0
+    again = run_search(scene, {"0.5": trajectory.q}, trajectory.times, config, geometry,
+                       clearance)
+    assert again.name == first.name and again.record["verdicts"] == record["verdicts"]
+
+
+def test_the_push_planner_is_registered_and_plans_every_angle():
+    planner = get_planner("push")
+    assert planner.starts_from == "baseline"
+    scene = scenes.load_shipped_scene("fig6_push_sideways")
+    config = load_config(None, [*SMALL, "push_search.rounds=1", "push_search.samples=1",
+                                "physics.grasp_heights=[]", "physics.approach_offsets=[]"])
+    (candidate,) = planner.plan(scene, config, angles=[3])
+    assert candidate.planner == "push" and candidate.ok
+    assert candidate.details["chosen"] in candidate.details["search"]["verdicts"]
+    assert "search" in candidate.timings and "P phi" in planner.table([candidate])

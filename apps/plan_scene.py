@@ -39,14 +39,14 @@ from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS
 from drake_clutter.phi.mujoco_model import check_scene
-from drake_clutter.planners.registry import planner_names, run_planners
+from drake_clutter.planners.registry import COMPARED, planner_names, run_planners
 from drake_clutter.planners.selection import selected_index
 from drake_clutter.robot.pr2 import VARIANTS
 from drake_clutter.scene.scenes import DEFAULT_SCENE, resolve_scene
 
 # Best first: the order in which an outcome is preferred for the Meshcat replay.
 _RANK = OUTCOME_KINDS
-ALL_PLANNERS = "both"  # --planner: every registered planner
+ALL_PLANNERS = "both"  # --planner: the compared planners (registry.COMPARED)
 
 
 def with_iterations(config, iterations: int | None):
@@ -75,11 +75,11 @@ def _plan(scene, config, names: tuple, angles: int, index: int | None = None) ->
 def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS,
                       jobs: int = 1) -> dict:
     """{planner: (candidates, Bullet outcomes with recordings)} for ``angles`` approach angles,
-    in the order shown (the registry's order reversed: physics first, on the right). With
+    in the order shown (`registry.COMPARED` reversed: physics first, on the right). With
     ``jobs`` > 1 the angles are planned in that many processes, each angle alone and phi's
     derivatives serial within it (``dynamics.workers`` 0: the same plans, the line search
     accepts the step a batched one would)."""
-    names = tuple(planner_names()[::-1] if planner == ALL_PLANNERS else (planner,))
+    names = tuple(COMPARED[::-1] if planner == ALL_PLANNERS else (planner,))
     if jobs <= 1 or angles <= 1:
         return _plan(scene, config, names, angles)
     serial = dataclasses.replace(

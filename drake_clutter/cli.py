@@ -26,7 +26,7 @@ from pathlib import Path
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.scene.generators import GenerationError
 
-ALL_PLANNERS = "both"  # --planner: every registered planner, each list in the registry's order
+ALL_PLANNERS = "both"  # --planner: the compared planners (registry.COMPARED), in that order
 
 
 class _OneLineParser(argparse.ArgumentParser):
@@ -150,9 +150,9 @@ def _cmd_plan(args) -> int:
 
     from drake_clutter.common.typed_yaml import to_data
     from drake_clutter.planners.registry import (
+        COMPARED,
         check_planners,
         get_planner,
-        planner_names,
         run_planners,
     )
     from drake_clutter.planners.selection import selected_index
@@ -169,7 +169,7 @@ def _cmd_plan(args) -> int:
             config, baseline=dataclasses.replace(config.baseline, num_angles=args.angles))
     if not Path(args.out).resolve().parent.is_dir():
         raise InputError("<command line>", "--out", f"no such directory for {args.out}")
-    names = planner_names() if args.planner == ALL_PLANNERS else (args.planner,)
+    names = COMPARED if args.planner == ALL_PLANNERS else (args.planner,)
     check_planners(config, names, args.config or "<command line>")
     plans = run_planners(scene, config, names)
     candidates = [c for name in names for c in plans[name]]
@@ -298,7 +298,8 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("scene", help="a scene YAML file or a shipped scene name")
     plan.add_argument("--planner", choices=(*planner_names(), ALL_PLANNERS), default="baseline",
                       help="the planner (default: baseline, Sec. IV; physics: Sec. V from the "
-                      "baseline's candidates; both: the two lists)")
+                      "baseline's candidates; push: the push search from them; both: baseline and "
+                      "physics)")
     plan.add_argument("--angles", type=int,
                       help="number of approach angles (default: baseline.num_angles)")
     plan.add_argument("--out", required=True, help="plan file (JSON) to write")

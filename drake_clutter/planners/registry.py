@@ -135,6 +135,11 @@ REGISTRY: dict[str, Planner] = {p.name: p for p in (BaselinePlanner(), PhysicsPl
                                                     PushPlanner())}
 
 
+# The planners compared by default ("both" on the command line, the main job): the baseline
+# and the planner it is measured against.
+COMPARED = ("baseline", "physics")
+
+
 def planner_names() -> tuple[str, ...]:
     """The registered planners' names, in the registry's order."""
     return tuple(REGISTRY)

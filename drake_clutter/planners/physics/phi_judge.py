@@ -252,16 +252,29 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
     """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's ensemble
     members ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet
     the same members, each member's phi pruned for all of them and rolled out from each path's
-    own start. ``geometry``: the capsule arm with the boxes at rest (built here if None)."""
+    own start. ``pool`` (a `phi.workers.WorkerPool`): the members are rolled out in its
+    workers, one member a task (the same verdicts). ``geometry``: the capsule arm with the
+    boxes at rest (built here if None)."""
     geometry = geometry or ArmGeometry(scene, "capsules")
-    knot_time = float(np.diff(times[:2])[0])
+    checks = {name: plan_checks(scene, geometry, q, times, config) for name, q in paths.items()}
+    order = list(range(config.ensemble.members) if members is None else members)
+    jobs = [(scene, paths, np.asarray(times, float), config, checks, m) for m in order]
+    if pool is None:
+        per_member = [_member_found(job, geometry) for job in jobs]
+    else:
+        per_member = pool.run(_member_found, jobs)
+    return {name: PhiVerdict.from_findings([found[name] for found in per_member], config)
+            for name in paths}
+
+
+def _member_found(job, geometry: ArmGeometry | None = None) -> dict[str, PhiFindings]:
+    """One member's findings of every path (a worker task: the geometry is built here when
+    not given)."""
+    scene, paths, times, config, checks, member = job
+    geometry = geometry or ArmGeometry(scene, "capsules")
     held = replace(config, physics=replace(config.physics,
                                            hold_knots=config.ensemble.judge_hold_knots))
-    checks = {name: plan_checks(scene, geometry, q, times, config) for name, q in paths.items()}
-    found: dict[str, list[PhiFindings]] = {name: [] for name in paths}
-    for member in range(config.ensemble.members) if members is None else members:
-        rollouts = member_rollouts(scene, paths, held, member, pool, knot_time, jam=True)
-        for name, q in paths.items():
-            found[name].append(member_findings(scene, geometry, q, rollouts[name],
-                                               *checks[name], config.evaluation))
-    return {name: PhiVerdict.from_findings(f, config) for name, f in found.items()}
+    rollouts = member_rollouts(scene, paths, held, member, None, float(np.diff(times[:2])[0]),
+                               jam=True)
+    return {name: member_findings(scene, geometry, q, rollouts[name], *checks[name],
+                                  config.evaluation) for name, q in paths.items()}

@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from drake_clutter.common.config import Config, check_config
+from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import approach_angles, static_planning_world
 from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.physics.geometry import ArmGeometry
@@ -26,33 +27,41 @@ from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
 
 def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Candidate]:
     """One "push" Candidate per baseline candidate in ``start``, in order (module
-    docstring)."""
+    docstring); phi's members are rolled out in ``dynamics.workers`` worker processes (0: in
+    this one)."""
     check_config(config)
     geometry = ArmGeometry(scene, "capsules")
     clearance = ShelfClearance(static_planning_world(scene))
     alphas = approach_angles(config.baseline)
+    pool = WorkerPool(config.dynamics.workers) if config.dynamics.workers > 0 else None
     out = []
-    for candidate in start:
-        if not candidate.ok:
-            out.append(Candidate(candidate.alpha, candidate.status, candidate.reason,
-                                 candidate.trajectory, "push", dict(candidate.timings),
-                                 dict(candidate.details)))
-            continue
-        index = int(np.argmin(np.abs(alphas - candidate.alpha)))
-        out.append(push_candidate(scene, candidate, config, geometry, clearance, index))
+    try:
+        for candidate in start:
+            if not candidate.ok:
+                out.append(Candidate(candidate.alpha, candidate.status, candidate.reason,
+                                     candidate.trajectory, "push", dict(candidate.timings),
+                                     dict(candidate.details)))
+                continue
+            index = int(np.argmin(np.abs(alphas - candidate.alpha)))
+            out.append(push_candidate(scene, candidate, config, geometry, clearance, index,
+                                      pool))
+    finally:
+        if pool is not None:
+            pool.close()
     return out
 
 
 def push_candidate(scene: Scene, candidate: Candidate, config: Config, geometry: ArmGeometry,
-                   clearance: ShelfClearance, index: int) -> Candidate:
-    """The push planner on one baseline candidate (angle ``index`` of the baseline's)."""
+                   clearance: ShelfClearance, index: int, pool=None) -> Candidate:
+    """The push planner on one baseline candidate (angle ``index`` of the baseline's);
+    ``pool``: `run_search`'s."""
     tic = time.perf_counter()
     found = height_candidates(scene, candidate, config)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
     timings = {"heights": time.perf_counter() - tic}
     tic = time.perf_counter()
     result = run_search(scene, starts, candidate.trajectory.times, config, geometry, clearance,
-                        index)
+                        index, pool)
     timings["search"] = time.perf_counter() - tic
     details = {"initialization": candidate.planner, "search": result.record,
                "chosen": result.name}

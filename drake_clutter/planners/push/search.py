@@ -88,8 +88,9 @@ class Search:
     judge them in, and every path judged so far."""
 
     def __init__(self, scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray,
-                 config: Config, geometry: ArmGeometry, clearance: ShelfClearance):
+                 config: Config, geometry: ArmGeometry, clearance: ShelfClearance, pool=None):
         self.scene, self.times, self.config = scene, np.asarray(times, float), config
+        self.pool = pool
         self.geometry, self.clearance = geometry, clearance
         search = config.push_search
         self.judge_config = replace(
@@ -127,7 +128,7 @@ class Search:
         if not names:
             return {}
         return judge_paths(self.scene, {n: self.samples[n].q for n in names}, self.times,
-                           self.judge_config, geometry=self.geometry, members=members)
+                           self.judge_config, self.pool, self.geometry, members)
 
     def frame(self, start: str):
         """The approach frame and the met boxes of a start path (computed once)."""
@@ -145,14 +146,15 @@ class Search:
 
 
 def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, config: Config,
-               geometry: ArmGeometry, clearance: ShelfClearance, index: int = 0
+               geometry: ArmGeometry, clearance: ShelfClearance, index: int = 0, pool=None
                ) -> SearchResult:
     """The search of one approach angle (``index``, seeds the draws) from the straight
     ``starts`` (name: knots (T + 1, 8), the first the baseline's; knots at ``times`` s);
-    see the module docstring."""
+    see the module docstring. ``pool``: a `phi.workers.WorkerPool` the members are rolled
+    out in (the same result)."""
     tic = time.perf_counter()
     cfg = config.push_search
-    s = Search(scene, starts, times, config, geometry, clearance)
+    s = Search(scene, starts, times, config, geometry, clearance, pool)
     s.verdicts.update(s.judge(list(starts)))
     best_start = s.best(list(starts))
     record = {"starts": list(starts), "best_start": best_start, "rounds": []}

@@ -123,3 +123,19 @@ def test_the_push_planner_is_registered_and_plans_every_angle():
     assert candidate.planner == "push" and candidate.ok
     assert candidate.details["chosen"] in candidate.details["search"]["verdicts"]
     assert "search" in candidate.timings and "P phi" in planner.table([candidate])
+
+
+def test_members_rolled_out_in_workers_read_the_same(setting):
+    from drake_clutter.phi.workers import WorkerPool
+    from drake_clutter.planners.physics.phi_judge import judge_paths
+
+    scene, trajectory, geometry, _ = setting
+    config = load_config(None, ["ensemble.members=2", "dynamics.engine=mujoco"])
+    paths = {"a": trajectory.q}
+    serial = judge_paths(scene, paths, trajectory.times, config, geometry=geometry)
+    pool = WorkerPool(2)
+    try:
+        spread = judge_paths(scene, paths, trajectory.times, config, pool, geometry)
+    finally:
+        pool.close()
+    assert spread["a"].to_data() == serial["a"].to_data()

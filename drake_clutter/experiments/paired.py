@@ -96,13 +96,22 @@ def verdict(physics: tuple[int, int], baseline: tuple[int, int]) -> str:
 
 
 def paired_rows(rows: list[dict]) -> list[dict]:
-    """One row per physics unit that has a baseline unit of the same scene, angle and
-    configuration: both kinds, both grades and the verdict (better / same / worse)."""
+    """One row per unit of a planner other than the baseline that has a baseline unit of the
+    same scene, angle and configuration: both kinds, both grades and the verdict (better /
+    same / worse). The "physics" fields hold the other planner's; its configuration is named
+    "<configuration>/<planner>" for planners other than "physics"."""
     base = {(r["config_name"], r["scene"], r["angle"]): r for r in rows
             if r["planner"] == "baseline"}
-    return [_pair(r["config_name"], r, base[(r["config_name"], r["scene"], r["angle"])])
-            for r in rows if r["planner"] == "physics"
+    return [_pair(comparison_name(r), r, base[(r["config_name"], r["scene"], r["angle"])])
+            for r in rows if r["planner"] != "baseline"
             and (r["config_name"], r["scene"], r["angle"]) in base]
+
+
+def comparison_name(row: dict) -> str:
+    """The name a stored row's configuration is compared under: its own for the physics
+    planner, "<configuration>/<planner>" for another."""
+    return row["config_name"] if row["planner"] == "physics" else (
+        f"{row['config_name']}/{row['planner']}")
 
 
 def _pair(configuration: str, r: dict, b: dict) -> dict:

@@ -175,6 +175,11 @@ def test_paired_grade_counts_disturbed_boxes_within_a_class():
     assert paired_rows([row("baseline", "success", 0, "a"), row("physics", "success", 0)]) == []
     (summary,) = paired_comparison([row("baseline", "success", 0), row("physics", "success", 0)])
     assert summary["same"] == 1 and summary["sign_test_p"] is None
+    # Another planner than physics is paired with the baseline under its own name.
+    pairs = paired_rows([row("baseline", "failure_to_grasp", 0), row("physics", "success", 0),
+                         row("push", "success", 0)])
+    assert [(p["configuration"], p["verdict"]) for p in pairs] == [("c", "better"),
+                                                                   ("c/push", "better")]
 
 
 def test_paired_differences_have_a_seeded_interval_and_a_signed_rank_p(tmp_path):

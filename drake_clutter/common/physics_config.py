@@ -412,6 +412,9 @@ class PushSearchConfig:
     jitter_offset: float = bounded(0.015, ge=0.0)
     # standard deviation of a perturbation's via-point progress and time, fraction; ours
     jitter_progress: float = bounded(0.04, ge=0.0)
+    # return the first straight start that keeps off the boxes (physics.height_choice "clear"'s
+    # test) without a search, flag; ours
+    clear_first: bool = True
     # P(success) in phi of the best start at which the search stops (nothing to gain), unitless;
     # ours
     stop_at: float = bounded(1.0, ge=0.0, le=1.0)

@@ -55,7 +55,10 @@ def selected_index(candidates: list[Candidate], baseline: BaselineConfig | None 
 
 def _push_score(details: dict) -> float | None:
     """The push planner's score of its chosen path: minus its P(success) in phi, plus a
-    hundredth of its expected grade (ties)."""
+    hundredth of its expected grade (ties); -1 for a clear straight path (no search: such
+    paths succeed in about 99 % of the judge's replays)."""
+    if details.get("clear"):
+        return -1.0
     search = details.get("search") or {}
     verdict = (search.get("verdicts") or {}).get(details.get("chosen"))
     if verdict is None:

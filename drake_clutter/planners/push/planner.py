@@ -1,7 +1,8 @@
 """The push planner (beyond the paper): per approach angle, the baseline's straight path at
 each grasp height and yaw of ``physics.grasp_heights`` and ``physics.approach_offsets``
-(`grasp_height.height_candidates`), then the sampling search over the push family from them,
-scored by the judge in phi (`search.run_search`).
+(`grasp_height.height_candidates`); the first of them that keeps off the boxes
+(`clear_starts`, with ``push_search.clear_first``), else the sampling search over the push
+family from them all, scored by the judge in phi (`search.run_search`).
 
 One capsule arm with the boxes at rest and one shelf-clearance world are built per scene and
 serve every angle. A candidate the baseline could not plan comes back as it is, relabelled
@@ -19,7 +20,11 @@ from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import approach_angles, static_planning_world
 from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.grasp_height import height_candidates, start_key
+from drake_clutter.planners.physics.grasp_height import (
+    box_depths,
+    height_candidates,
+    start_key,
+)
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
@@ -59,6 +64,13 @@ def push_candidate(scene: Scene, candidate: Candidate, config: Config, geometry:
     found = height_candidates(scene, candidate, config)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
     timings = {"heights": time.perf_counter() - tic}
+    clear = clear_starts(scene, starts, config, geometry) if (
+        config.push_search.clear_first) else []
+    if clear:
+        details = {"initialization": candidate.planner, "clear": clear, "chosen": clear[0]}
+        trajectory = Trajectory(candidate.trajectory.times.copy(), starts[clear[0]])
+        return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
+                         timings=timings, details=details)
     tic = time.perf_counter()
     result = run_search(scene, starts, candidate.trajectory.times, config, geometry, clearance,
                         index, pool)
@@ -70,12 +82,28 @@ def push_candidate(scene: Scene, candidate: Candidate, config: Config, geometry:
                      timings=timings, details=details)
 
 
+def clear_starts(scene: Scene, starts: dict[str, np.ndarray], config: Config,
+                 geometry: ArmGeometry) -> list[str]:
+    """The starts (in order) whose path neither presses on a box's top deeper than
+    ``physics.press_tolerance`` nor enters a non-target box's side deeper than
+    ``physics.side_tolerance``, with the boxes at rest (`grasp_height.box_depths`: the
+    "clear" rule of the physics planner's height choice)."""
+    depths = box_depths(geometry, starts, config, scene.target)
+    physics = config.physics
+    return [name for name, (press, side) in depths.items()
+            if press <= physics.press_tolerance and side <= physics.side_tolerance]
+
+
 def push_table(candidates: list[Candidate]) -> str:
     """A text table, one row per angle: the path chosen, its and the best start's P(success)
     in phi, the members drawn and kept, and the seconds."""
     rows = [f"{'alpha':>7} {'chosen':>22} {'P phi':>6} {'start':>6} {'kept':>9} {'s':>6}"]
     for c in candidates:
         search = (c.details or {}).get("search")
+        if c.ok and (c.details or {}).get("clear"):
+            rows.append(f"{c.alpha:7.3f} {c.details['chosen'] + ' (clear)':>22} {'':>6} {'':>6} "
+                        f"{'':>9} {sum(c.timings.values()):6.1f}")
+            continue
         if not c.ok or not search:
             rows.append(f"{c.alpha:7.3f} {c.status.value:>22}")
             continue

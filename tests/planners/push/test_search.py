@@ -139,3 +139,18 @@ def test_members_rolled_out_in_workers_read_the_same(setting):
     finally:
         pool.close()
     assert spread["a"].to_data() == serial["a"].to_data()
+
+
+def test_a_clear_straight_start_is_returned_without_a_search():
+    planner = get_planner("push")
+    scene = scenes.load_shipped_scene("default_bookshelf")
+    config = load_config(None, [*SMALL, "physics.grasp_heights=[]"])
+    (clear,) = planner.plan(scene, config, angles=[10])  # its straight path keeps off the boxes
+    assert clear.details["clear"] == ["0.5"] and clear.details["chosen"] == "0.5"
+    assert "search" not in clear.details and "search" not in clear.timings
+    (blocked,) = planner.plan(scene, config, angles=[2])  # its straight path enters a box
+    assert "clear" not in blocked.details and blocked.details["search"]["verdicts"]
+    off = load_config(None, [*SMALL, "physics.grasp_heights=[]", "push_search.clear_first=false",
+                             "push_search.rounds=1", "push_search.samples=1"])
+    (searched,) = planner.plan(scene, off, angles=[10])
+    assert "search" in searched.details

@@ -392,13 +392,11 @@ class PushConfig:
 class PushSearchConfig:
     """The push planner's sampling search over the push family (beyond the paper): all ours."""
 
-    # phi's engine for the search's score, the judge in phi (its gate was measured in MuJoCo),
-    # choice; ours
+    # phi's engine for the search's score, the judge in phi (gate measured in MuJoCo), choice; ours
     engine: Literal["drake", "mujoco"] = "mujoco"
     # ensemble members the search scores every path in (member 0 the scene), count; ours
     members: int = bounded(4, ge=1)
-    # held-out members (the next ones) a bent path must also win on to replace its start, count;
-    # ours
+    # held-out members (the next ones) a bent path must win on to replace its start, count; ours
     veto_members: int = bounded(4, ge=1)
     # family members drawn in the first round, over all starts, count; ours
     samples: int = bounded(12, ge=0)
@@ -412,11 +410,9 @@ class PushSearchConfig:
     jitter_offset: float = bounded(0.015, ge=0.0)
     # standard deviation of a perturbation's via-point progress and time, fraction; ours
     jitter_progress: float = bounded(0.04, ge=0.0)
-    # return the first straight start that keeps off the boxes (physics.height_choice "clear"'s
-    # test) without a search, flag; ours
+    # return the first straight start that keeps off the boxes without a search, flag; ours
     clear_first: bool = True
-    # P(success) in phi of the best start at which the search stops (nothing to gain), unitless;
-    # ours
+    # P(success) in phi of the best start at which the search does not run, unitless; ours
     stop_at: float = bounded(1.0, ge=0.0, le=1.0)
     # seed of the search's draws (a candidate draws from [seed, angle index]), integer; ours
     seed: int = bounded(0, ge=0)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from importlib import import_module
 from typing import Literal, Protocol
 
 from drake_clutter.common.config import Config, check_config
@@ -78,57 +79,49 @@ class BaselinePlanner:
         return candidates_table(candidates)
 
 
-class PhysicsPlanner:
-    """Sec. V: iLQR through phi, the smooth-contact simulation, from the baseline's paths."""
+class _FromBaseline:
+    """A planner that refines the baseline's candidates: its module's ``plan(scene, config,
+    start)`` and ``table(candidates)`` functions, imported when first used."""
+
+    starts_from = "baseline"
+    module = ""  # the module that holds the two functions
+    functions = ("", "")  # (plan, table) function names in ``module``
+
+    def check(self, config: Config, file: str = "<configuration>") -> None:
+        """`config.check_config` on the whole configuration."""
+        check_config(config, file)
+
+    def plan(self, scene: Scene, config: Config, angles: Sequence[int] | None = None,
+             start: list[Candidate] | None = None) -> list[Candidate]:
+        """The module's plan function on ``start`` (the baseline's candidates, planned here
+        if None)."""
+        if start is None:
+            start = REGISTRY["baseline"].plan(scene, config, angles)
+        return getattr(import_module(self.module), self.functions[0])(scene, config, start)
+
+    def table(self, candidates: list[Candidate]) -> str:
+        """The module's table function: a text table of the candidates, one row per angle."""
+        return getattr(import_module(self.module), self.functions[1])(candidates)
+
+
+class PhysicsPlanner(_FromBaseline):
+    """Sec. V: iLQR through phi, the smooth-contact simulation, from the baseline's paths
+    (`physics.pipeline.plan_physics`; table `stages_table`: seconds per stage and the phi
+    objective)."""
 
     name = "physics"
-    starts_from = "baseline"
-
-    def check(self, config: Config, file: str = "<configuration>") -> None:
-        """`config.check_config` on the whole configuration."""
-        check_config(config, file)
-
-    def plan(self, scene: Scene, config: Config, angles: Sequence[int] | None = None,
-             start: list[Candidate] | None = None) -> list[Candidate]:
-        """`physics.pipeline.plan_physics` on ``start`` (the baseline's candidates)."""
-        from drake_clutter.planners.physics.pipeline import plan_physics
-
-        if start is None:
-            start = REGISTRY["baseline"].plan(scene, config, angles)
-        return plan_physics(scene, config, start)
-
-    def table(self, candidates: list[Candidate]) -> str:
-        """`physics.pipeline.stages_table`: seconds per stage and the phi objective."""
-        from drake_clutter.planners.physics.pipeline import stages_table
-
-        return stages_table(candidates)
+    module = "drake_clutter.planners.physics.pipeline"
+    functions = ("plan_physics", "stages_table")
 
 
-class PushPlanner:
+class PushPlanner(_FromBaseline):
     """Beyond the paper: a sampling search over paths that can push, scored by the judge in
-    phi, from the baseline's paths at several grasp heights."""
+    phi, from the baseline's paths at several grasp heights (`push.planner.plan_push`; table
+    `push_table`: the path chosen, P(success) in phi, the seconds)."""
 
     name = "push"
-    starts_from = "baseline"
-
-    def check(self, config: Config, file: str = "<configuration>") -> None:
-        """`config.check_config` on the whole configuration."""
-        check_config(config, file)
-
-    def plan(self, scene: Scene, config: Config, angles: Sequence[int] | None = None,
-             start: list[Candidate] | None = None) -> list[Candidate]:
-        """`push.planner.plan_push` on ``start`` (the baseline's candidates)."""
-        from drake_clutter.planners.push.planner import plan_push
-
-        if start is None:
-            start = REGISTRY["baseline"].plan(scene, config, angles)
-        return plan_push(scene, config, start)
-
-    def table(self, candidates: list[Candidate]) -> str:
-        """`push.planner.push_table`: the path chosen, P(success) in phi, the seconds."""
-        from drake_clutter.planners.push.planner import push_table
-
-        return push_table(candidates)
+    module = "drake_clutter.planners.push.planner"
+    functions = ("plan_push", "push_table")
 
 
 REGISTRY: dict[str, Planner] = {p.name: p for p in (BaselinePlanner(), PhysicsPlanner(),

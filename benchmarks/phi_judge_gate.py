@@ -209,7 +209,7 @@ def main(argv=None) -> int:
                                            "dynamics.workers=0"])
         for db in args.db:
             if not Path(db).exists():
-                raise InputError(f"{db}: no such store")
+                raise InputError("<command line>", "--db", f"no such store {db}")
     except InputError as exc:
         print(exc, file=sys.stderr)
         return 2

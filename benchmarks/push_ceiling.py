@@ -49,12 +49,12 @@ from drake_clutter.experiments.paired import bootstrap_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.approach import static_planning_world
-from drake_clutter.planners.clearance import ShelfClearance, dense_check
+from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.phi_judge import judge_paths
 from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
-from drake_clutter.planners.push.family import member_path
-from drake_clutter.trajectory import Trajectory, plan_limit_violation
+from drake_clutter.planners.push.family import feasible, member_path
+from drake_clutter.trajectory import Trajectory
 
 DEFAULT_HEIGHT = "h0.5"
 
@@ -103,8 +103,7 @@ def ceiling_one(job) -> dict:
             path, error = member_path(geometry, q, member)
             drawn += 1
             times = np.asarray(s["times"])
-            if (error > 1e-3 or plan_limit_violation(Trajectory(times, path), config.evaluation)
-                    or not dense_check(clearance, path[:, :7], config.baseline).passed):
+            if not feasible(path, error, times, clearance, config):
                 continue
             kept += 1
             judged = _judged(scene, times, path, config, args.replays, 0, fresh=False)
@@ -214,10 +213,10 @@ def main(argv=None) -> int:
                            f"ensemble.members={max(args.phi_members, 1)}"])
         for db in args.db:
             if not Path(db).exists():
-                raise InputError(f"{db}: no such store")
+                raise InputError("<command line>", "--db", f"no such store {db}")
         if args.samples < 1 or args.replays < 1 or args.fresh_seed == 0:
-            raise InputError("--samples and --replays must be >= 1, --fresh-seed not the "
-                             "judge's seed 0")
+            raise InputError("<command line>", "--samples/--replays/--fresh-seed",
+                             "must be >= 1, and --fresh-seed not the judge's seed 0")
     except InputError as exc:
         print(exc, file=sys.stderr)
         return 2

@@ -33,13 +33,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_clutter.common.config import PushConfig
+from drake_clutter.common.config import Config, PushConfig
+from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
 ARM = 7  # arm joints; column 7 of a path is the gripper opening (m)
 DAMPING = 1e-6  # damped least squares: lambda^2 added to J J^T (m^2, rad^2)
 POSE_TOLERANCE = 1e-4  # m and rad: a knot's G is on its target within this
 MAX_NEWTON = 20  # Gauss-Newton steps per knot at most
+POSE_LIMIT = 1e-3  # m or rad: a member whose knots miss their targets by more is dropped
 
 
 @dataclass(frozen=True)
@@ -160,3 +163,14 @@ def draw_member(rng: np.random.Generator, ranges: PushConfig) -> PushPath:
                           for k, p, a, b in zip(knots, progress, lateral, vertical,
                                                 strict=True)), open_at)
 
+
+
+def feasible(q: np.ndarray, error: float, times: np.ndarray, clearance: ShelfClearance,
+             config: Config) -> bool:
+    """Whether a member's knots (T + 1, 8, at ``times`` s) reached their targets within
+    ``POSE_LIMIT`` (``error``, m or rad), keep the judge's joint and speed limits and pass the
+    baseline's dense shelf check."""
+    return (error <= POSE_LIMIT
+            and not plan_limit_violation(Trajectory(np.asarray(times, float), q),
+                                         config.evaluation)
+            and dense_check(clearance, q[:, :7], config.baseline).passed)

@@ -33,15 +33,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from drake_clutter.common.config import Config, PushSearchConfig
-from drake_clutter.planners.clearance import ShelfClearance, dense_check
+from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.phi_judge import PhiVerdict, judge_paths
 from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
-from drake_clutter.planners.push.family import PushPath, ViaPoint, member_path
+from drake_clutter.planners.push.family import PushPath, ViaPoint, feasible, member_path
 from drake_clutter.scene.scenes import Scene
-from drake_clutter.trajectory import Trajectory, plan_limit_violation
-
-POSE_LIMIT = 1e-3  # m or rad: a member whose knots miss their targets by more is dropped
 
 
 @dataclass(frozen=True)
@@ -102,13 +99,6 @@ class Search:
         self.counts = {"drawn": 0, "feasible": 0}
         self._frames = {}
 
-    def feasible(self, q: np.ndarray, error: float) -> bool:
-        """Whether a member's knots (T + 1, 8) reached their targets and pass the limits and
-        the shelf check."""
-        return (error <= POSE_LIMIT
-                and not plan_limit_violation(Trajectory(self.times, q), self.config.evaluation)
-                and dense_check(self.clearance, q[:, :7], self.config.baseline).passed)
-
     def add(self, name: str, start: str, member: PushPath) -> bool:
         """Builds ``member`` about the start path ``start`` and keeps it as ``name`` if
         feasible."""
@@ -117,7 +107,7 @@ class Search:
             q, error = member_path(self.geometry, self.samples[start].q, member)
         except (RuntimeError, ValueError):
             return False
-        if not self.feasible(q, error):
+        if not feasible(q, error, self.times, self.clearance, self.config):
             return False
         self.counts["feasible"] += 1
         self.samples[name] = Sample(start, member, q)
@@ -139,10 +129,14 @@ class Search:
                                                        self.scene.target))
         return self._frames[start]
 
+    def ranked(self, names) -> list[str]:
+        """The judged paths ``names``, best first (ties to the earlier)."""
+        order = {n: i for i, n in enumerate(self.samples)}
+        return sorted(names, key=lambda n: (*self.verdicts[n].key(), order[n]))
+
     def best(self, names) -> str:
         """The best judged path among ``names`` (ties to the earlier)."""
-        order = list(self.samples)
-        return min(names, key=lambda n: (*self.verdicts[n].key(), order.index(n)))
+        return self.ranked(names)[0]
 
 
 def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, config: Config,
@@ -189,7 +183,7 @@ def _perturb_round(s: Search, rng: np.random.Generator, round_: int) -> list[str
     """A later round: the elite bent paths each perturbed; the kept names."""
     cfg = s.config.push_search
     bent = [n for n in s.verdicts if s.samples[n].member is not None]
-    elite = sorted(bent, key=lambda n: (*s.verdicts[n].key(), list(s.samples).index(n)))
+    elite = s.ranked(bent)
     kept = []
     for e, name in enumerate(elite[:cfg.elite]):
         sample = s.samples[name]

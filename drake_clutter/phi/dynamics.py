@@ -241,6 +241,14 @@ class PhiBase:
         x_next = self._step(x, u, trace=False, forces=False, jam=jam)[0]
         return x_next, jam if np.all(np.isfinite(x_next)) else jam * np.nan
 
+    def step_traced_jam(self, x: np.ndarray, u: np.ndarray
+                        ) -> tuple[np.ndarray, set, np.ndarray]:
+        """`step_traced` and `step_jam` of one step: phi(x, u), its interaction edges and each
+        kept box's jam measure over the knot (m, shape (n,); NaN after a failed step)."""
+        jam = np.zeros(self.layout.num_boxes)
+        x_next, edges, _ = self._step(x, u, trace=True, forces=False, jam=jam)
+        return x_next, edges, jam if np.all(np.isfinite(x_next)) else jam * np.nan
+
     def settle(self, x: np.ndarray, seconds: float | None = None) -> np.ndarray:
         """x after the boxes rest ``seconds`` (default ``settle_time``) under the still arm:
         a start state whose boxes are at rest in phi (resting poses from a scene are not

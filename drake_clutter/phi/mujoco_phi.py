@@ -94,8 +94,13 @@ def jam_contacts(model, data, nodes: np.ndarray) -> list[Contact]:
     `jam.Contact`s; ``nodes`` maps geometry ids to interaction nodes (ARM_NODE, box i + 1,
     frozen boxes negative, STATIC)."""
     magnitude = contact_magnitudes(model, data)
+    acting = np.flatnonzero(magnitude >= MIN_FORCE)
+    pairs = nodes[data.contact.geom[acting]] if acting.size else np.zeros((0, 2), int)
+    arm, box = pairs == ARM_NODE, pairs > ARM_NODE
+    if not np.any((arm[:, 0] & box[:, 1]) | (arm[:, 1] & box[:, 0])):
+        return []  # the arm pushes no kept box: no box can be blocked under it
     out = []
-    for i in np.flatnonzero(magnitude >= MIN_FORCE):
+    for i in acting:
         g1, g2 = (int(g) for g in data.contact.geom[i])
         n1, n2 = _jam_node(int(nodes[g1])), _jam_node(int(nodes[g2]))
         if n1 == n2:

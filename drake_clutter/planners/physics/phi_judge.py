@@ -37,7 +37,10 @@ from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 
 from drake_clutter.common.config import Config, EvaluationConfig
-from drake_clutter.planners.physics.ensemble import MemberRollout, member_rollouts
+from drake_clutter.phi.dynamics import build_phi, initial_state, make_spec
+from drake_clutter.phi.pruning import prune
+from drake_clutter.phi.state import ARM_DIM, scene_box_states
+from drake_clutter.planners.physics.ensemble import member_world
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.penetration import path_depths
 from drake_clutter.scene.grading import (
@@ -60,7 +63,9 @@ class PhiFindings:
     joint or speed limit violation ("" for none), its deepest press on a box's top with the
     boxes at rest (m), phi's largest jam measure over the path and the hold (m; None where
     phi failed), whether phi failed, the boxes fallen, the obstacles tipped, why the target is
-    not grasped ("" when it is) and the boxes tipped or fallen (the target included)."""
+    not grasped ("" when it is), the boxes tipped or fallen (the target included), and
+    whether the rollout was stopped (or not run) once a kinematic failure was certain (the box
+    fates are then not read: `judge_paths` with ``complete=False``)."""
 
     limit: str = ""
     press: float = 0.0
@@ -70,12 +75,13 @@ class PhiFindings:
     tipped: tuple[str, ...] = ()
     grasp: str = ""
     disturbed: int = 0
+    stopped: bool = False
 
     def to_data(self) -> dict:
         """JSON-ready dict."""
         return {"limit": self.limit, "press": self.press, "jam": self.jam,
                 "failed": self.failed, "fallen": list(self.fallen), "tipped": list(self.tipped),
-                "grasp": self.grasp, "disturbed": self.disturbed}
+                "grasp": self.grasp, "disturbed": self.disturbed, "stopped": self.stopped}
 
     @staticmethod
     def from_data(data: dict) -> PhiFindings:
@@ -83,7 +89,8 @@ class PhiFindings:
         return PhiFindings(str(data["limit"]), float(data["press"]),
                            None if data["jam"] is None else float(data["jam"]),
                            bool(data["failed"]), tuple(data["fallen"]), tuple(data["tipped"]),
-                           str(data["grasp"]), int(data["disturbed"]))
+                           str(data["grasp"]), int(data["disturbed"]),
+                           bool(data.get("stopped", False)))
 
 
 @dataclass(frozen=True)
@@ -120,9 +127,14 @@ def kinematic_reason(findings: PhiFindings, config: Config) -> str:
 
 
 def reading_of(findings: PhiFindings, config: Config) -> PhiReading:
-    """Sec. III's class of the findings with the judge's precedence (`grading.classify`)."""
-    kind, why = classify(kinematic_reason(findings, config), findings.fallen, findings.grasp,
-                         findings.tipped)
+    """Sec. III's class of the findings with the judge's precedence (`grading.classify`);
+    ValueError for stopped findings that ``config``'s reading does not fail."""
+    reason = kinematic_reason(findings, config)
+    if findings.stopped and not reason:
+        raise ValueError("findings of a stopped rollout read without a kinematic failure: "
+                         f"ensemble.kinematic_reading {config.ensemble.kinematic_reading!r} "
+                         "differs from the one they were judged with")
+    kind, why = classify(reason, findings.fallen, findings.grasp, findings.tipped)
     return PhiReading(kind.value, why, findings.disturbed)
 
 
@@ -219,7 +231,7 @@ def grasp_reason(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray, p: np.
 
 
 def member_findings(scene: Scene, geometry: ArmGeometry, q: np.ndarray,
-                    rollout: MemberRollout, limit: str, press: float,
+                    rollout: JudgedRollout, limit: str, press: float,
                     evaluation: EvaluationConfig) -> PhiFindings:
     """What one member's ``rollout`` (with its jam measure) of the knot path ``q`` (T + 1, 8)
     showed, with the plan's ``limit`` violation and ``press`` depth (m) found beforehand."""
@@ -246,19 +258,96 @@ def plan_checks(scene: Scene, geometry: ArmGeometry, q: np.ndarray, times: np.nd
     return violation, float(press)
 
 
+@dataclass(frozen=True)
+class JudgedRollout:
+    """One path rolled out in one member's phi for the judge: every kept box's 13-number state
+    at the end of the hold (quaternion wxyz, position in W (m), velocities; None where phi
+    failed or the rollout stopped), the largest knot's jam measure so far (m, `phi.jam`; None
+    where phi failed), whether it stopped at ``stop`` and the frozen boxes it reached."""
+
+    final_boxes: dict[str, np.ndarray] | None
+    jam: float | None
+    stopped: bool = False
+    touched: frozenset = frozenset()
+
+
+def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
+                    knot_time: float, stop: float | None = None) -> dict[str, JudgedRollout]:
+    """Each knot path (T + 1, 8) rolled out in one phi of ``world`` (a member's scene, capsule
+    arm, ``config``'s engine) and held at its last knot for ``ensemble.judge_hold_knots``
+    knots, its jam measured at every knot; one phi for all paths, pruned to them
+    (`pruning.prune`), its boxes settled once under the first path's start. A path whose
+    rollout reaches a frozen box is rolled out again in a phi with those boxes kept, up to
+    ``dynamics.prune_rounds`` times. ``stop`` (m): a rollout ends once its jam reaches it.
+    A path phi cannot settle or step reads failed (final_boxes None, jam None)."""
+    dyn = config.dynamics
+    states = scene_box_states(world)
+    first, *others = (np.asarray(q, float) for q in paths.values())
+    kept = set(prune(world, first, states, dyn, config.world, "capsules", tuple(others)).kept)
+    out: dict[str, JudgedRollout] = {}
+    todo = dict(paths)
+    for round_ in range(dyn.prune_rounds + 1):
+        spec = make_spec(world, [b.name for b in world.boxes if b.name in kept], states,
+                         knot_time, dyn, config.world, "capsules")
+        phi = build_phi(spec)
+        try:
+            x0 = phi.settle(initial_state(spec.layout, first[0], states))
+        except (RuntimeError, ValueError):  # Drake's solver errors while settling
+            return {**out, **dict.fromkeys(todo, JudgedRollout(None, None))}
+        for name, q in todo.items():
+            out[name] = _judged_rollout(phi, x0, np.asarray(q, float),
+                                        config.ensemble.judge_hold_knots, stop)
+        touched = set().union(*(out[name].touched for name in todo))
+        if not touched or round_ == dyn.prune_rounds:
+            break
+        kept |= touched
+        todo = {name: q for name, q in todo.items() if out[name].touched}
+    return {name: out[name] for name in paths}
+
+
+def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
+                    stop: float | None) -> JudgedRollout:
+    """One path from x0 (its arm set to q[0]) through its knots and the hold."""
+    layout = phi.layout
+    x = x0.copy()
+    x[:ARM_DIM] = q[0]
+    worst, touched = 0.0, set()
+    for u in [*q[1:], *([q[-1]] * hold_knots)]:
+        try:
+            x, edges, jam = phi.step_traced_jam(x, u)
+        except (RuntimeError, ValueError):  # Drake's solver errors while stepping
+            return JudgedRollout(None, None, touched=frozenset(touched))
+        touched |= phi.frozen_touched(edges)
+        quats = layout.boxes(x)[:, :4]
+        if not np.all(np.isfinite(x)) or np.any(np.abs(np.linalg.norm(quats, axis=1) - 1)
+                                                 > 1e-6):
+            return JudgedRollout(None, None, touched=frozenset(touched))
+        worst = max(worst, float(jam.max(initial=0.0)))
+        if stop is not None and worst >= stop:
+            return JudgedRollout(None, worst, True, frozenset(touched))
+    return JudgedRollout(dict(zip(layout.box_names, layout.boxes(x).copy(), strict=True)),
+                         worst, touched=frozenset(touched))
+
+
 def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, config: Config,
                 pool=None, geometry: ArmGeometry | None = None,
-                members: Sequence[int] | None = None) -> dict[str, PhiVerdict]:
+                members: Sequence[int] | None = None, complete: bool = True
+                ) -> dict[str, PhiVerdict]:
     """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's ensemble
     members ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet
     the same members, each member's phi pruned for all of them and rolled out from each path's
-    own start. ``pool`` (a `phi.workers.WorkerPool`): the members are rolled out in its
-    workers, one member a task (the same verdicts). ``geometry``: the capsule arm with the
-    boxes at rest (built here if None)."""
+    own start (`judged_rollouts`). ``complete=False`` reads the same classes with less work: a
+    path the checks already fail (a limit, or a press under a press reading) is not rolled
+    out, and a rollout stops once its jam reads a kinematic failure (its findings then say
+    ``stopped`` and hold no box fates, so they cannot be read with another
+    ``kinematic_reading``). ``pool`` (a `phi.workers.WorkerPool`): the members are rolled out
+    in its workers, one member a task (the same verdicts). ``geometry``: the capsule arm with
+    the boxes at rest (built here if None)."""
     geometry = geometry or ArmGeometry(scene, "capsules")
     checks = {name: plan_checks(scene, geometry, q, times, config) for name, q in paths.items()}
     order = list(range(config.ensemble.members) if members is None else members)
-    jobs = [(scene, paths, np.asarray(times, float), config, checks, m) for m in order]
+    jobs = [(scene, paths, np.asarray(times, float), config, checks, m, complete)
+            for m in order]
     if pool is None:
         per_member = [_member_found(job, geometry) for job in jobs]
     else:
@@ -270,11 +359,23 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
 def _member_found(job, geometry: ArmGeometry | None = None) -> dict[str, PhiFindings]:
     """One member's findings of every path (a worker task: the geometry is built here when
     not given)."""
-    scene, paths, times, config, checks, member = job
+    scene, paths, times, config, checks, member, complete = job
     geometry = geometry or ArmGeometry(scene, "capsules")
-    held = replace(config, physics=replace(config.physics,
-                                           hold_knots=config.ensemble.judge_hold_knots))
-    rollouts = member_rollouts(scene, paths, held, member, None, float(np.diff(times[:2])[0]),
-                               jam=True)
-    return {name: member_findings(scene, geometry, q, rollouts[name], *checks[name],
-                                  config.evaluation) for name, q in paths.items()}
+    reading = config.ensemble.kinematic_reading
+    decided = set() if complete else {
+        name for name, (limit, press) in checks.items()
+        if limit or (reading in ("press", "jam_or_press")
+                     and press > config.physics.press_tolerance)}
+    stop = (config.dynamics.jam_depth if not complete and reading in ("jam", "jam_or_press")
+            else None)
+    world, cfg = member_world(scene, config, member)
+    rolled = judged_rollouts(world, {n: q for n, q in paths.items() if n not in decided}, cfg,
+                             float(np.diff(times[:2])[0]), stop)
+    out = {name: PhiFindings(*checks[name], jam=None, stopped=True) for name in decided}
+    for name, r in rolled.items():
+        if r.stopped:
+            out[name] = PhiFindings(*checks[name], jam=r.jam, stopped=True)
+        else:
+            out[name] = member_findings(scene, geometry, paths[name], r, *checks[name],
+                                        config.evaluation)
+    return {name: out[name] for name in paths}

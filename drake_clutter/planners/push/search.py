@@ -118,7 +118,8 @@ class Search:
         if not names:
             return {}
         return judge_paths(self.scene, {n: self.samples[n].q for n in names}, self.times,
-                           self.judge_config, self.pool, self.geometry, members)
+                           self.judge_config, self.pool, self.geometry, members,
+                           complete=False)
 
     def frame(self, start: str):
         """The approach frame and the met boxes of a start path (computed once)."""

@@ -14,9 +14,9 @@ from scipy.spatial.transform import Rotation
 
 from drake_clutter.common.config import Config, load_config
 from drake_clutter.phi.state import pose_to_box_state, scene_box_states
-from drake_clutter.planners.physics.ensemble import FAILED, MemberRollout
 from drake_clutter.planners.physics.geometry import ArmGeometry
 from drake_clutter.planners.physics.phi_judge import (
+    JudgedRollout,
     PhiFindings,
     PhiReading,
     PhiVerdict,
@@ -98,7 +98,7 @@ def _moved(states, name, X):
 def _read(setting, final, limit="", jam=0.0, press=0.0, config=None):
     scene, q, geometry, _ = setting
     config = config or Config()
-    findings = member_findings(scene, geometry, q, MemberRollout({}, final, False, jam), limit,
+    findings = member_findings(scene, geometry, q, JudgedRollout(final, jam), limit,
                                press, config.evaluation)
     return reading_of(findings, config)
 
@@ -141,13 +141,13 @@ def test_readings_give_every_class_of_sec_iii(setting):
     assert _read(setting, states, press=0.01, config=reading("jam")).kind == "success"
     assert _read(setting, states, limit="too fast", config=reading("jam")).kind == \
         "kinematic_failure"
-    failed = member_findings(scene, geometry, q, FAILED, "", 0.0, Config().evaluation)
+    failed = member_findings(scene, geometry, q, JudgedRollout(None, None), "", 0.0, Config().evaluation)
     assert failed.failed and reading_of(failed, Config()).kind == "kinematic_failure"
 
 
 def test_findings_round_trip_and_read_again_under_another_reading(setting):
     scene, q, geometry, states = setting
-    findings = member_findings(scene, geometry, q, MemberRollout({}, states, False, 0.002),
+    findings = member_findings(scene, geometry, q, JudgedRollout(states, 0.002),
                                "", 0.01, Config().evaluation)
     assert PhiFindings.from_data(findings.to_data()) == findings
     verdict = PhiVerdict.from_findings([findings.to_data()] * 2, Config())
@@ -206,3 +206,28 @@ def test_judge_paths_is_deterministic_and_reads_the_plans(scene, baseline_path):
     assert first["outside"].p_success == 0.0
     assert all(r.kind == "kinematic_failure" and r.reason.startswith("jam")
                for r in first["baseline"].readings)
+
+
+def test_the_short_judge_reads_the_same_classes_with_stopped_rollouts(scene, baseline_path):
+    """``complete=False``: the same readings; the jammed path's rollouts stop at the jam
+    (no box fates read), a path out of the judge's speed limits is not rolled out, and
+    stopped findings read with a reading that does not fail them raise."""
+    config = load_config(None, ["dynamics.engine=mujoco", "ensemble.members=2",
+                                "dynamics.workers=0"])
+    times = np.arange(len(baseline_path)) * config.baseline.knot_time
+    short = np.repeat(baseline_path[:1], len(baseline_path), axis=0)
+    fast = baseline_path.copy()
+    fast[1:, 0] += 2.0  # a 2 rad jump of the first joint in one knot: over its speed limit
+    paths = {"baseline": baseline_path, "outside": short, "fast": fast}
+    full = judge_paths(scene, paths, times, config)
+    quick = judge_paths(scene, paths, times, config, complete=False)
+    for name in paths:
+        assert [r.kind for r in quick[name].readings] == [r.kind for r in full[name].readings]
+    assert all(f.stopped and f.jam >= config.dynamics.jam_depth and f.fallen == ()
+               for f in quick["baseline"].findings)
+    assert not any(f.stopped for f in full["baseline"].findings)
+    assert all(f.stopped and f.limit and f.jam is None for f in quick["fast"].findings)
+    assert not any(f.stopped for f in quick["outside"].findings)
+    pressing = replace(config, ensemble=replace(config.ensemble, kinematic_reading="press"))
+    with pytest.raises(ValueError, match="kinematic_reading"):
+        PhiVerdict.from_findings(quick["baseline"].findings, pressing)

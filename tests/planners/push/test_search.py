@@ -59,7 +59,8 @@ def test_the_veto_keeps_the_start_unless_the_pick_wins_on_unseen_members(setting
     seen_members = []
 
     def scripted(wins_held_out):
-        def judge(scene, paths, times, config, pool=None, geometry=None, members=None):
+        def judge(scene, paths, times, config, pool=None, geometry=None, members=None,
+                  complete=True):
             seen_members.append(None if members is None else list(members))
             held_out = members is not None
             out = {}

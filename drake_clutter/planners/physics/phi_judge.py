@@ -30,7 +30,7 @@ and the expected grade class, as the robust judge summarises its replays.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion

@@ -141,7 +141,8 @@ def test_readings_give_every_class_of_sec_iii(setting):
     assert _read(setting, states, press=0.01, config=reading("jam")).kind == "success"
     assert _read(setting, states, limit="too fast", config=reading("jam")).kind == \
         "kinematic_failure"
-    failed = member_findings(scene, geometry, q, JudgedRollout(None, None), "", 0.0, Config().evaluation)
+    failed = member_findings(scene, geometry, q, JudgedRollout(None, None), "", 0.0,
+                             Config().evaluation)
     assert failed.failed and reading_of(failed, Config()).kind == "kinematic_failure"
 
 

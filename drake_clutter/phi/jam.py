@@ -140,15 +140,27 @@ def approach_speeds(contacts: list[Contact], point_velocity) -> dict:
     the actor's material point at ``contact.point`` under the commanded joint velocities."""
     out: dict = {}
     cones: dict = {}
+    index = _Index(contacts)
     for c in contacts:
         if c.b != ACTOR or c.a in (None, ACTOR):
             continue
         push = c.normal  # from the actor into the box
-        if not blocked(c.a, push, contacts, (c.a,), cones):
+        if not blocked(c.a, push, contacts, (c.a,), cones, index):
             continue
         speed = float(point_velocity(c) @ push)
         out[c.a] = max(out.get(c.a, 0.0), speed)
     return out
+
+
+class _Index:
+    """A step's contacts by their node ``a`` and the answers of `blocked` found so far (a
+    box's several contact points with one face share their normal: the same question)."""
+
+    def __init__(self, contacts: list[Contact]):
+        self.by_node: dict = {}
+        for c in contacts:
+            self.by_node.setdefault(c.a, []).append(c)
+        self.answers: dict = {}
 
 
 _ANGLES = 2 * np.pi * np.arange(CONE_EDGES) / CONE_EDGES
@@ -183,23 +195,36 @@ def held(direction: np.ndarray, generators: list[np.ndarray]) -> bool:
 
 
 def blocked(box, push: np.ndarray, contacts: list[Contact], chain: tuple = (),
-            cones: dict | None = None) -> bool:
+            cones: dict | None = None, index: _Index | None = None) -> bool:
     """Whether ``box``, pushed along the unit ``push``, cannot move in a rigid world: its
     static contacts' friction cones, and those of boxes it presses that are blocked in turn
     (followed up to MAX_CHAIN boxes, never back along ``chain``), hold the push. ``cones``:
     each contact's cone generators by id, filled as they are met (the chains meet the same
-    contacts many times)."""
+    contacts many times); ``index``: the contacts by node and the answers so far (built here
+    if None). The cones only add reactions, so the answer is yes as soon as some of them hold
+    the push; the boxes further along are then not asked."""
     cones = {} if cones is None else cones
-    generators = []
-    for c in contacts:
-        if c.a != box or c.b == ACTOR:
+    index = _Index(contacts) if index is None else index
+    key = (box, np.asarray(push, dtype=float).tobytes(), chain)
+    if key in index.answers:
+        return index.answers[key]
+    generators, pressed = [], []
+    for c in index.by_node.get(box, ()):
+        if c.b == ACTOR:
             continue
         if c.b is None:
             generators.extend(_generators(c, cones))
         elif c.b not in chain and len(chain) < MAX_CHAIN and float(c.normal @ push) < 0.0:
-            if blocked(c.b, -c.normal, contacts, chain + (c.b,), cones):
-                generators.extend(_generators(c, cones))
-    return held(push, generators)
+            pressed.append(c)
+    answer = held(push, generators)
+    for c in pressed:
+        if answer:
+            break
+        if blocked(c.b, -c.normal, contacts, chain + (c.b,), cones, index):
+            generators.extend(_generators(c, cones))
+            answer = held(push, generators)
+    index.answers[key] = answer
+    return answer
 
 
 def _generators(contact: Contact, cones: dict) -> np.ndarray:

@@ -90,27 +90,53 @@ def _jam_node(node: int):
 
 
 def jam_contacts(model, data, nodes: np.ndarray) -> list[Contact]:
-    """The data's contacts that carry a force (`jam.MIN_FORCE`), both ways round, as
-    `jam.Contact`s; ``nodes`` maps geometry ids to interaction nodes (ARM_NODE, box i + 1,
-    frozen boxes negative, STATIC)."""
+    """The data's contacts that carry a force (`jam.MIN_FORCE`) as `jam.Contact`s, each
+    listed from the side of every kept box it touches that the arm reaches through a chain of
+    touching kept boxes (the only contacts `jam.approach_speeds` reads); ``nodes`` maps
+    geometry ids to interaction nodes (ARM_NODE, box i + 1, frozen boxes negative, STATIC)."""
     magnitude = contact_magnitudes(model, data)
     acting = np.flatnonzero(magnitude >= MIN_FORCE)
     pairs = nodes[data.contact.geom[acting]] if acting.size else np.zeros((0, 2), int)
-    arm, box = pairs == ARM_NODE, pairs > ARM_NODE
-    if not np.any((arm[:, 0] & box[:, 1]) | (arm[:, 1] & box[:, 0])):
+    reached = _pushed_boxes(pairs)
+    if not reached:
         return []  # the arm pushes no kept box: no box can be blocked under it
     out = []
-    for i in acting:
-        g1, g2 = (int(g) for g in data.contact.geom[i])
-        n1, n2 = _jam_node(int(nodes[g1])), _jam_node(int(nodes[g2]))
-        if n1 == n2:
+    for i, (m1, m2) in zip(acting, pairs.tolist(), strict=True):
+        if m1 == m2 or (m1 not in reached and m2 not in reached):
             continue
+        g1, g2 = (int(g) for g in data.contact.geom[i])
+        n1, n2 = _jam_node(m1), _jam_node(m2)
         normal = data.contact.frame[i, :3].copy()  # from geom1 into geom2
         point = data.contact.pos[i].copy()
         mu = float(data.contact.friction[i, 0])
-        out.append(Contact(n2, n1, normal, point, mu, g1))
-        out.append(Contact(n1, n2, -normal, point, mu, g2))
+        if m2 in reached:
+            out.append(Contact(n2, n1, normal, point, mu, g1))
+        if m1 in reached:
+            out.append(Contact(n1, n2, -normal, point, mu, g2))
     return out
+
+
+def _pushed_boxes(pairs: np.ndarray) -> set[int]:
+    """The kept boxes' nodes (> ARM_NODE) that the arm touches in the node ``pairs`` (k, 2),
+    and those they touch in turn, and so on."""
+    box = pairs > ARM_NODE
+    arm = pairs == ARM_NODE
+    reached = set(pairs[arm[:, 0] & box[:, 1], 1].tolist()) | set(
+        pairs[arm[:, 1] & box[:, 0], 0].tolist())
+    if not reached:
+        return reached
+    links = {}
+    for a, b in pairs[box[:, 0] & box[:, 1]].tolist():
+        if a != b:
+            links.setdefault(a, set()).add(b)
+            links.setdefault(b, set()).add(a)
+    queue = list(reached)
+    while queue:
+        for other in links.get(queue.pop(), ()):
+            if other not in reached:
+                reached.add(other)
+                queue.append(other)
+    return reached
 
 
 def commanded_point_velocity(model, data, v_commanded: np.ndarray):

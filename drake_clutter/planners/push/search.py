@@ -19,6 +19,9 @@ yaws, knots at the same times, the first the baseline's own), in rounds (``push_
    members the search never saw (indices K .. K + veto - 1) is strictly better than the best
    start's there. Otherwise the best start is returned; that is also the answer when every
    start reads P(success) >= ``stop_at`` already (no member drawn) or no member is feasible.
+5. **The time budget**: no round starts once the search has run ``time_budget`` seconds
+   (``record["stopped"]`` says after how many); the pick and the veto are made on what was
+   judged.
 
 The search never fails the plan: a member that cannot be built is dropped and counted, and a
 rollout phi cannot finish reads as a kinematic failure (`judge_paths`). Every draw is seeded
@@ -155,6 +158,9 @@ def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, c
     record = {"starts": list(starts), "best_start": best_start, "rounds": []}
     if s.verdicts[best_start].p_success < cfg.stop_at:
         for round_ in range(cfg.rounds):
+            if cfg.time_budget is not None and time.perf_counter() - tic > cfg.time_budget:
+                record["stopped"] = f"time_budget after {round_} rounds"
+                break
             rng = np.random.default_rng([cfg.seed, index, round_])
             names = (_draw_round(s, rng, list(starts)) if round_ == 0
                      else _perturb_round(s, rng, round_))

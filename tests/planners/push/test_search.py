@@ -99,6 +99,21 @@ def test_a_start_that_reads_success_stops_the_search(setting, monkeypatch):
     assert result.record["counts"]["drawn"] == 0 and result.record["veto"] is None
 
 
+def test_a_search_past_its_time_budget_starts_no_round(setting, monkeypatch):
+    scene, trajectory, geometry, clearance = setting
+    monkeypatch.setattr(search_module, "judge_paths", lambda scene, paths, *a, **k: {
+        n: _verdict("failure_to_grasp") for n in paths})
+    spent = load_config(None, [*SMALL, "push_search.time_budget=1.0e-9"])
+    result = run_search(scene, {"a": trajectory.q}, trajectory.times, spent, geometry,
+                        clearance)
+    assert result.name == "a" and result.record["rounds"] == []
+    assert result.record["stopped"] == "time_budget after 0 rounds"
+    ample = load_config(None, [*SMALL, "push_search.time_budget=1000000.0"])
+    result = run_search(scene, {"a": trajectory.q}, trajectory.times, ample, geometry,
+                        clearance)
+    assert len(result.record["rounds"]) == 2 and "stopped" not in result.record
+
+
 def test_a_real_search_returns_a_judged_path_and_is_seeded(setting):
     scene, trajectory, geometry, clearance = setting
     config = load_config(None, [*SMALL, "push_search.rounds=1", "push_search.samples=2"])

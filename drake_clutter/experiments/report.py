@@ -365,28 +365,31 @@ def selected_rows(rows: list[dict]) -> dict[tuple[str, str, str], dict | None]:
 
 def selected_plan_success(rows: list[dict], settings: ReportConfig | None = None
                           ) -> list[dict]:
-    """Per configuration with both planners: over the scenes, the mean robust P(success)
-    (`row_p_success`; 0 where nothing was selected) of the candidate each planner would
-    execute (`selected_rows`) beside the best angle's (the paper's scene success, which needs
-    the judge to pick), and the per-scene difference physics minus baseline with its
-    bootstrap interval."""
+    """Per configuration and planner compared with that configuration's baseline: over the
+    scenes, the mean robust P(success) (`row_p_success`; 0 where nothing was selected) of the
+    candidate each planner would execute (`selected_rows`) beside the best angle's (the
+    paper's scene success, which needs the judge to pick), and the per-scene difference
+    planner minus baseline with its bootstrap interval. The "physics" fields hold the other
+    planner's; its configuration is named "<configuration>/<planner>" for planners other
+    than "physics" (as in the paired table)."""
     settings = settings or ReportConfig()
     chosen = selected_rows(rows)
     best = {(c, p): robust_scene_success(g) for (c, p), g in groups(rows).items()}
     out = []
-    for config in dict.fromkeys(r["config_name"] for r in rows):
-        if (config, "physics") not in best or (config, "baseline") not in best:
+    for config, planner in best:
+        if planner == "baseline" or (config, "baseline") not in best:
             continue
-        scenes = sorted(set(best[(config, "physics")]) & set(best[(config, "baseline")]))
-        p = {planner: [0.0 if chosen.get((config, planner, s)) is None else
-                       row_p_success(chosen[(config, planner, s)]) for s in scenes]
-             for planner in ("physics", "baseline")}
-        diffs = np.subtract(p["physics"], p["baseline"])
+        scenes = sorted(set(best[(config, planner)]) & set(best[(config, "baseline")]))
+        p = {name: [0.0 if chosen.get((config, name, s)) is None else
+                    row_p_success(chosen[(config, name, s)]) for s in scenes]
+             for name in (planner, "baseline")}
+        diffs = np.subtract(p[planner], p["baseline"])
         low, high = bootstrap_interval(diffs, settings)
-        out.append({"configuration": config, "scenes": len(scenes),
-                    "physics_selected": float(np.mean(p["physics"])),
+        out.append({"configuration": config if planner == "physics" else f"{config}/{planner}",
+                    "scenes": len(scenes),
+                    "physics_selected": float(np.mean(p[planner])),
                     "baseline_selected": float(np.mean(p["baseline"])),
-                    "physics_best_angle": float(np.mean([best[(config, "physics")][s]
+                    "physics_best_angle": float(np.mean([best[(config, planner)][s]
                                                          for s in scenes])),
                     "baseline_best_angle": float(np.mean([best[(config, "baseline")][s]
                                                           for s in scenes])),

@@ -383,6 +383,28 @@ def test_selected_plan_success_takes_each_planners_own_first_choice():
     assert summary["selected_ci_low"] <= summary["selected_diff"] <= summary["selected_ci_high"]
 
 
+def test_selected_plan_success_pairs_the_push_planner_with_the_baseline():
+    """The push planner ranks its candidates by minus P(success) in phi (a clear start -1):
+    scene a's clear angle 1 is chosen; the row is named "<configuration>/push"."""
+    def push(angle, kinds, details):
+        row = _robust_row("push", "a", angle, kinds)
+        return {**row, "plan": {"trajectory": {"q": []}, "details": details}}
+
+    rows = [_scored(_robust_row("baseline", "a", 0, ["failure_to_grasp"] * 4), (0.0, 0.1)),
+            _scored(_robust_row("baseline", "a", 1, ["success"] * 4), (0.0, 0.2)),
+            push(0, ["failure_to_grasp"] * 4,
+                 {"chosen": "0.5/r0m1", "search": {"verdicts": {"0.5/r0m1": {
+                     "p_success": 0.75, "expected_grade": 0.5}}}}),
+            push(1, ["success"] * 3 + ["partial_success"], {"chosen": "0.6", "clear": ["0.6"]})]
+    chosen = selected_rows(rows)
+    assert chosen[("c", "push", "a")]["angle"] == 1
+    assert chosen[("c", "baseline", "a")]["angle"] == 0
+    (summary,) = selected_plan_success(rows)
+    assert summary["configuration"] == "c/push"
+    assert summary["physics_selected"] == pytest.approx(0.75)
+    assert summary["baseline_selected"] == 0.0 and summary["selected_diff"] == pytest.approx(0.75)
+
+
 def _fill_two_configurations(db) -> list[dict]:
     """The physics planner in two configurations over the same initializations: 'plain'
     (failure to grasp, success, kinematic failure) and 'search' (success, success, failure to

@@ -93,6 +93,13 @@ class StateLayout:
         """Box states, shape (n, 13)."""
         return np.asarray(x)[ARM_DIM:].reshape(self.num_boxes, BOX_DIM)
 
+    def is_state(self, x: np.ndarray) -> bool:
+        """Whether x is a state phi can go on from: finite, every box quaternion of unit norm
+        within 1e-6 (SAP overflowing on a wild control breaks it)."""
+        quats = self.boxes(x)[:, :4]
+        return bool(np.all(np.isfinite(x))
+                    and np.all(np.abs(np.linalg.norm(quats, axis=1) - 1) <= 1e-6))
+
     def box_index(self, name: str) -> int:
         """Index of a kept box in the state (ValueError if it is not kept)."""
         return self.box_names.index(name)

@@ -318,9 +318,7 @@ def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
         except (RuntimeError, ValueError):  # Drake's solver errors while stepping
             return JudgedRollout(None, None, touched=frozenset(touched))
         touched |= phi.frozen_touched(edges)
-        quats = layout.boxes(x)[:, :4]
-        if not np.all(np.isfinite(x)) or np.any(np.abs(np.linalg.norm(quats, axis=1) - 1)
-                                                 > 1e-6):
+        if not layout.is_state(x):
             return JudgedRollout(None, None, touched=frozenset(touched))
         worst = max(worst, float(jam.max(initial=0.0)))
         if stop is not None and worst >= stop:

@@ -5,21 +5,22 @@
     python apps/plan_scene.py --scene fig7_cascade    # a shipped scene by name, or a YAML file
     python apps/plan_scene.py --html out.html         # write a self-contained HTML file instead
     python apps/plan_scene.py --planner baseline      # one planner only (baseline: seconds)
-    python apps/plan_scene.py --angles 14 --iterations 30   # Sec. V's iLQR through phi (slow)
+    python apps/plan_scene.py --planner physics --iterations 30   # the paper's Sec. V (slow)
 
-The baseline (Sec. IV) plans ``--angles`` approach angles; the physics planner (Sec. V) optimises
-every baseline candidate that came out usable (``--planner both``, the default, shows both;
-``physics`` shows only its plans, still initialised by the baseline). Every plan is replayed in
-Bullet (Sec. III) with a recording. A table prints, per angle, each planner's outcome and
-planning time. Meshcat then replays the chosen angle, the plans of both planners side by side
-(physics on the right, baseline on the left; the boxes move as Bullet moved them, tipped boxes
-orange, fallen red, contact forces as yellow arrows; drake_clutter/viz/replay.py): the angle with
-the best physics outcome among those both planners made a plan for (ties: the better baseline
-outcome, then the first); with ``--show selected``, each planner's own choice, the candidate it
-would execute ranked without the judge (starred in the table; drake_clutter/planners/
-selection.py). Cost curves of the physics plans (each term per iLQR iteration) go
-to PNG files. Prints the Meshcat URL and serves until Ctrl-C unless --html or --no-browser is
-given. Bad input prints one line and exits 2.
+The baseline (Sec. IV) plans ``--angles`` approach angles; ``--planner both`` (the default)
+also runs the planner compared with it, the push planner (a sampling search over paths that can
+push, scored by the judge in phi, started from the baseline's paths; ``push`` shows only its
+plans). ``--planner physics`` is the paper's Sec. V (iLQR through phi from the baseline's paths;
+``--iterations`` sets its iterations through phi). Every plan is replayed in Bullet (Sec. III)
+with a recording. A table prints, per angle, each planner's outcome and planning time. Meshcat
+then replays the chosen angle, the plans of both planners side by side (the compared planner
+on the right, the baseline on the left; the boxes move as Bullet moved them, tipped boxes
+orange, fallen red, contact forces as yellow arrows; drake_clutter/viz/replay.py): the angle with the best outcome of the compared planner among
+those both planners made a plan for (ties: the better baseline outcome, then the first); with
+``--show selected``, each planner's own choice, the candidate it would execute ranked without
+the judge (starred in the table; drake_clutter/planners/selection.py). Cost curves of Sec. V's
+plans (each term per iLQR iteration) go to PNG files. Prints the Meshcat URL and serves until
+Ctrl-C unless --html or --no-browser is given. Bad input prints one line and exits 2.
 """
 
 from __future__ import annotations
@@ -75,7 +76,8 @@ def _plan(scene, config, names: tuple, angles: int, index: int | None = None) ->
 def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS,
                       jobs: int = 1) -> dict:
     """{planner: (candidates, Bullet outcomes with recordings)} for ``angles`` approach angles,
-    in the order shown (`registry.COMPARED` reversed: physics first, on the right). With
+    in the order shown (`registry.COMPARED` reversed: the compared planner first, on the
+    right). With
     ``jobs`` > 1 the angles are planned in that many processes, each angle alone and phi's
     derivatives serial within it (``dynamics.workers`` 0: the same plans, the line search
     accepts the step a batched one would)."""
@@ -148,7 +150,7 @@ def choose_angle(plans: dict) -> tuple[int, list[str]] | None:
 
 
 def write_cost_curves(plans: dict, directory: Path, stem: str) -> list[Path]:
-    """A PNG of cost curves per plan with an iLQR history (the physics planner's):
+    """A PNG of cost curves per plan with an iLQR history (Sec. V's, planner "physics"):
     ``<directory>/<stem>_costs_<planner>_<alpha>.png``."""
     from drake_clutter.viz.cost_curves import plot_cost_curves
 
@@ -218,9 +220,9 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--angles", type=int, default=2,
                         help="approach angles to plan (default 2; the paper uses 14)")
     parser.add_argument("--iterations", type=int, default=None,
-                        help="physics iLQR iterations through phi per candidate, a third with "
-                        "the sphere proxy (default: the configuration's, 0: no phi stages; "
-                        "the paper's Sec. V: --iterations 30)")
+                        help="Sec. V's iLQR iterations through phi per candidate, a third with "
+                        "the sphere proxy, for --planner physics (default: the "
+                        "configuration's, 0: no phi stages; the paper's: --iterations 30)")
     parser.add_argument("--jobs", type=int, default=min(2, os.cpu_count() or 1),
                         help="processes planning the angles side by side, each angle alone "
                         "(default: 2, or 1 on one core; 1: every angle in a row, the baseline "
@@ -239,6 +241,9 @@ def _check(args) -> None:
     if args.iterations is not None and args.iterations < 0:
         raise InputError("<command line>", "--iterations",
                          f"must be at least 0, got {args.iterations}")
+    if args.iterations is not None and args.planner != "physics":
+        raise InputError("<command line>", "--iterations",
+                         "sets Sec. V's iterations through phi: give it with --planner physics")
     for flag, value in (("--html", args.html), ("--costs", args.costs)):
         if value is None:
             continue

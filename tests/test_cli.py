@@ -115,7 +115,9 @@ def test_plan_scene_app_writes_html_of_default_scene(tmp_path):
 
 @pytest.mark.parametrize("args, field", [(["--jobs", "0"], "--jobs"),
                                          (["--angles", "0"], "--angles"),
-                                         (["--set", "physics.iterations=-1"], "physics")])
+                                         (["--set", "physics.iterations=-1"], "physics"),
+                                         (["--set", "push_search.members=0"], "push_search"),
+                                         (["--iterations", "30"], "--iterations")])
 def test_plan_scene_app_bad_options_exit_2(args, field):
     result = subprocess.run([sys.executable, "apps/plan_scene.py", *args, "--no-browser"],
                             cwd=REPO, capture_output=True, text=True, timeout=300)

@@ -55,11 +55,19 @@ def test_tiers_load_and_expand():
     assert counts["paper"] == 150 * 14 * 2
     assert counts["smoke"] == 4 * 2 * 2
     assert counts["smoke"] < counts["small"] < counts["paper"]
-    assert counts["behaviours"] == 4 * 6 * 2 * 2  # scenes x angles x planners x configurations
+    assert counts["behaviours"] == 4 * 6 * 2  # scenes x angles x planners
     assert counts["probe"] == 24 * 4 * 2  # scenes x angles x planners
     assert counts["probe_half"] == 24 * 2 * 2
     assert counts["heldout"] == 24 * 2 * 2
     assert counts["candidates"] == 4 * 6 * 15  # scenes x angles x configurations
+
+
+def test_the_tiers_compare_the_default_planners():
+    from drake_clutter.planners.registry import COMPARED
+
+    for tier in TIERS:
+        spec, _ = load_spec(tier)
+        assert tuple(spec.planners) == (("baseline",) if tier == "candidates" else COMPARED), tier
 
 
 def test_heldout_tier_shares_no_scene_with_the_probe_tier():

@@ -1057,20 +1057,19 @@ def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():
     assert worse == 0 and better >= 3, "\n".join(rows)
 
 
-def test_plan_command_writes_both_planners(tmp_path, capsys):
+def test_plan_command_writes_the_physics_planner(tmp_path, capsys):
     from drake_clutter.cli import main
     from drake_clutter.trajectory import load_plan
 
     out = tmp_path / "plan.json"
-    code = main(["plan", "fig5_large_small", "--planner", "both", "--angles", "1", "--out",
+    code = main(["plan", "fig5_large_small", "--planner", "physics", "--angles", "1", "--out",
                  str(out), "--set", "physics.iterations=0", "--set", "physics.sphere_iterations=0",
                  "--set", "physics.pre_iterations=1",
                  "--set", "physics.post_iterations=1"])
     assert code == 0
     _, candidates, doc = load_plan(out)
-    assert [c.planner for c in candidates] == ["baseline", "physics"]
-    assert candidates[0].alpha == candidates[1].alpha
-    assert doc["planner"] == "both" and doc["config"]["physics"]["iterations"] == 0
+    assert [c.planner for c in candidates] == ["physics"]
+    assert doc["planner"] == "physics" and doc["config"]["physics"]["iterations"] == 0
     assert "cost start" in capsys.readouterr().out
 
 

@@ -170,3 +170,19 @@ def test_a_clear_straight_start_is_returned_without_a_search():
                              "push_search.rounds=1", "push_search.samples=1"])
     (searched,) = planner.plan(scene, off, angles=[10])
     assert "search" in searched.details
+
+
+def test_the_plan_command_compares_the_push_planner_with_the_baseline(tmp_path, capsys):
+    from drake_clutter.cli import main
+    from drake_clutter.trajectory import load_plan
+
+    out = tmp_path / "plan.json"
+    small = [f"--set={s}" for s in (*SMALL, "push_search.rounds=1", "push_search.samples=1",
+                                      "physics.grasp_heights=[]", "physics.approach_offsets=[]")]
+    code = main(["plan", "fig6_push_sideways", "--planner", "both", "--angles", "1", "--out",
+                 str(out), *small])
+    assert code == 0
+    _, candidates, doc = load_plan(out)
+    assert [c.planner for c in candidates] == ["baseline", "push"]
+    assert candidates[0].alpha == candidates[1].alpha and doc["planner"] == "both"
+    assert "P phi" in capsys.readouterr().out

@@ -13,13 +13,14 @@ push, scored by the judge in phi, started from the baseline's paths; ``push`` sh
 plans). ``--planner physics`` is the paper's Sec. V (iLQR through phi from the baseline's paths;
 ``--iterations`` sets its iterations through phi). Every plan is replayed in Bullet (Sec. III)
 with a recording. A table prints, per angle, each planner's outcome and planning time. Meshcat
-then replays the chosen angle, the plans of both planners side by side (the compared planner
-on the right, the baseline on the left; the boxes move as Bullet moved them, tipped boxes
-orange, fallen red, contact forces as yellow arrows; drake_clutter/viz/replay.py): the angle with the best outcome of the compared planner among
-those both planners made a plan for (ties: the better baseline outcome, then the first); with
-``--show selected``, each planner's own choice, the candidate it would execute ranked without
-the judge (starred in the table; drake_clutter/planners/selection.py). Cost curves of Sec. V's
-plans (each term per iLQR iteration) go to PNG files. Prints the Meshcat URL and serves until
+then replays the chosen angle, the plans of both planners side by side (the compared planner on
+the right, the baseline on the left; the boxes move as Bullet moved them, tipped boxes orange,
+fallen red, contact forces as yellow arrows; drake_clutter/viz/replay.py): the angle with the
+best outcome of the compared planner among those both planners made a plan for (ties: the better
+baseline outcome, then the first); with ``--show selected``, each planner's own choice, the
+candidate it would execute ranked without the judge (starred in the table;
+drake_clutter/planners/selection.py). Cost curves of Sec. V's plans (each term per iLQR
+iteration) go to PNG files. Prints the Meshcat URL and serves until
 Ctrl-C unless --html or --no-browser is given. Bad input prints one line and exits 2.
 """
 

@@ -264,14 +264,7 @@ def record_replay(scene: Scene, views: Sequence[PlanView], config: Config, meshc
     animation of all of them (module docstring); the camera looks at all copies."""
     if not views:
         raise ValueError("nothing to replay: no plans")
-    labels = [v.label for v in views]
-    if len(set(labels)) != len(labels):
-        raise ValueError(f"view labels must differ, got {labels}")
-    copies = [_make_copy(scene, v, i, config, meshcat, variant) for i, v in enumerate(views)]
-    for i, copy in enumerate(copies):
-        _pose(copy, 0)
-        copy.diagram.ForcedPublish(copy.context)  # creates the objects
-        meshcat.SetTransform(copy.path, RigidTransform(copy_offset(scene, i, config)))
+    copies = draw_copies(scene, views, config, meshcat, variant)
     fps = config.viz.fps
     total = max(c.num_frames for c in copies)
     meshcat.StartRecording(frames_per_second=fps, set_visualizations_while_recording=False)
@@ -291,6 +284,30 @@ def record_replay(scene: Scene, views: Sequence[PlanView], config: Config, meshc
     look_at_copies(meshcat, scene, len(copies), config)
     return ReplaySummary(tuple(c.path for c in copies), tuple(c.num_frames for c in copies),
                          slots, highlighted, (total - 1) / fps)
+
+
+def draw_copies(scene: Scene, views: Sequence[PlanView], config: Config, meshcat: Meshcat,
+                variant: str = "capsules") -> list[_Copy]:
+    """Draws every view as its own copy of ``scene`` in ``meshcat`` at its first frame, each
+    copy shifted by `copy_offset`; returns the copies (`pose_copies` moves them)."""
+    if not views:
+        raise ValueError("nothing to draw: no plans")
+    labels = [v.label for v in views]
+    if len(set(labels)) != len(labels):
+        raise ValueError(f"view labels must differ, got {labels}")
+    copies = [_make_copy(scene, v, i, config, meshcat, variant) for i, v in enumerate(views)]
+    for i, copy in enumerate(copies):
+        _pose(copy, 0)
+        copy.diagram.ForcedPublish(copy.context)  # creates the objects
+        meshcat.SetTransform(copy.path, RigidTransform(copy_offset(scene, i, config)))
+    return copies
+
+
+def pose_copies(copies: Sequence[_Copy], k: int) -> None:
+    """Poses every copy at frame ``k`` (a copy past its last frame holds it) and publishes."""
+    for copy in copies:
+        _pose(copy, k)
+        copy.diagram.ForcedPublish(copy.context)
 
 
 def look_at_copies(meshcat: Meshcat, scene: Scene, count: int, config: Config) -> None:

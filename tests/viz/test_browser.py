@@ -143,3 +143,36 @@ def test_plan_scene_app_html_renders_side_by_side(tmp_path):
         left, right = image[:, :WINDOW[0] // 2], image[:, WINDOW[0] // 2:]
         assert_scene_drawn(left, blank[:, :WINDOW[0] // 2])
         assert_scene_drawn(right, blank[:, WINDOW[0] // 2:])
+
+
+def test_a_frame_strip_poses_the_recorded_frames(tmp_path):
+    """The first and last recorded frames of a judged plan, cropped to the shelf: the pictures
+    differ (the arm moved), and each panel still shows the shelf and the boxes."""
+    from drake_clutter.viz.pictures import colour_crop, frame_indices, frame_strip
+
+    _chromium()
+    scene = load_shipped_scene("fig6_push_sideways")
+    config = Config()
+    (candidate,) = plan_baseline(scene, config.baseline, alphas=[0.0])
+    outcome = evaluate(scene, candidate.trajectory, config.evaluation, record_fps=config.viz.fps)
+    assert frame_indices(outcome.recording.num_frames, 2) == [0, outcome.recording.num_frames - 1]
+    png = frame_strip(scene, [PlanView("baseline", candidate, outcome)], config,
+                      tmp_path / "strip.png", count=2, title="fig6")
+    image = imread(png)[..., :3]
+    left, right = image[:, : image.shape[1] // 2], image[:, image.shape[1] // 2:]
+    assert np.abs(left - right).max() > 0.3
+    rows, cols = colour_crop([left])
+    assert left[rows, cols].size < left.size
+
+
+def test_frame_indices_and_the_crop_of_a_blank_picture():
+    from drake_clutter.viz.pictures import colour_crop, frame_indices
+
+    assert frame_indices(1, 3) == [0] and frame_indices(10, 4) == [0, 3, 6, 9]
+    with pytest.raises(ValueError):
+        frame_indices(0, 2)
+    grey = np.full((20, 30, 3), 0.5)
+    assert colour_crop([grey]) == (slice(None), slice(None))
+    grey[5:8, 10:20] = (0.9, 0.2, 0.8)  # a magenta box
+    rows, cols = colour_crop([grey], above=1.0, margin=0.0)
+    assert (rows.start, rows.stop, cols.start, cols.stop) == (2, 8, 10, 20)

@@ -179,3 +179,37 @@ def test_plan_scene_bad_input_is_one_line_and_exit_2(args, field):
 def test_plan_scene_rejects_an_unknown_planner():
     result = _app("--planner", "magic", timeout=120)
     assert result.returncode == 2 and "invalid choice: 'magic'" in result.stderr
+
+
+# ------------------------------------------------------------------ apps/behaviour_pictures.py
+
+
+def _row(planner, angle, p, chosen="0.5"):
+    return {"scene": "fig6_push_sideways", "planner": planner, "angle": angle, "config_hash": "h",
+            "p_success": p, "plan": {"details": {"chosen": chosen}}}
+
+
+def test_behaviour_pictures_picks_the_widest_win_then_a_bent_path():
+    sys.path.insert(0, str(REPO / "apps"))
+    try:
+        from behaviour_pictures import pick_rows
+    finally:
+        sys.path.pop(0)
+    rows = [_row("baseline", 4, 0.625), _row("push", 4, 0.75),
+            _row("baseline", 5, 0.0), _row("push", 5, 0.25),
+            _row("baseline", 6, 0.0), _row("push", 6, 0.25, chosen="0.5/r0m1"),
+            _row("baseline", 7, None), _row("push", 7, 1.0)]  # 7: not judged robustly
+    ((base, push),) = pick_rows(rows, "push").values()
+    assert (base["angle"], push["angle"]) == (6, 6)
+    assert pick_rows(rows, "physics") == {}
+
+
+@pytest.mark.parametrize("args, field", [
+    (["missing.db", "--out", "."], "db"),
+    (["missing.db", "--out", "/no/such/dir"], "--out"),
+    (["missing.db", "--out", ".", "--frames", "0"], "--frames")])
+def test_behaviour_pictures_bad_input_is_one_line_and_exit_2(args, field):
+    result = subprocess.run([sys.executable, "apps/behaviour_pictures.py", *args], cwd=REPO,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2 and field in result.stderr
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr

@@ -6,8 +6,7 @@ plan and the baseline's, replayed in Bullet side by side (Sec. VI-A's figures).
     python apps/behaviour_pictures.py behaviours.db --out docs/behaviours
 
 Per scene of the store, the initialization shown is the one where the planner's robust
-P(success) exceeds the baseline's the most (ties: the planner's higher P(success), then a
-bent path over a straight one, then the first angle). Its two stored plans are replayed once
+P(success) exceeds the baseline's the most (`experiments.paired.widest_wins`). Its two stored plans are replayed once
 more in Bullet (the nominal replay, recorded) and drawn as `viz.pictures.frame_strip` draws
 them: ``--frames`` instants from the start to the end, the planner's copy on the right. One PNG
 per scene, ``<out>/<scene>.png``; a line per picture names the angle, the planner's path and
@@ -23,32 +22,6 @@ from pathlib import Path
 
 from drake_clutter.common.config import Config, config_from_data, load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
-
-
-def _bent(row: dict) -> bool:
-    """Whether a stored push plan's chosen path is bent (a family member, named '<start>/...')."""
-    return "/" in str(((row["plan"] or {}).get("details") or {}).get("chosen", ""))
-
-
-def pick_rows(rows: list[dict], planner: str) -> dict[str, tuple[dict, dict]]:
-    """{scene: (baseline row, planner row)} of the initialization to show per scene (module
-    docstring); scenes without a judged pair of the two are left out."""
-    pairs: dict[str, list[tuple[dict, dict]]] = {}
-    index = {(r["scene"], r["angle"], r["config_hash"], r["planner"]): r for r in rows}
-    for row in rows:
-        base = index.get((row["scene"], row["angle"], row["config_hash"], "baseline"))
-        if row["planner"] != planner or base is None:
-            continue
-        if row["p_success"] is None or base["p_success"] is None or not row["plan"]:
-            continue
-        pairs.setdefault(row["scene"], []).append((base, row))
-
-    def key(pair):
-        base, row = pair
-        return (row["p_success"] - base["p_success"], row["p_success"], _bent(row),
-                -row["angle"])
-
-    return {scene: max(found, key=key) for scene, found in pairs.items()}
 
 
 def picture(row_pair: tuple[dict, dict], config: Config, out: Path, frames: int) -> str:
@@ -90,6 +63,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    from drake_clutter.experiments.paired import widest_wins
     from drake_clutter.experiments.store import Store, StoreError
 
     args = _parser().parse_args(argv)
@@ -103,7 +77,7 @@ def main(argv=None) -> int:
         overrides = load_config(args.config, args.overrides)
         with Store(args.db, create=False) as store:
             rows, configurations = store.rows(), store.configurations()
-        chosen = pick_rows(rows, args.planner)
+        chosen = widest_wins(rows, args.planner)
         if args.scene:
             missing = sorted(set(args.scene) - set(chosen))
             if missing:

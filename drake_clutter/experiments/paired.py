@@ -107,6 +107,34 @@ def paired_rows(rows: list[dict]) -> list[dict]:
             and (r["config_name"], r["scene"], r["angle"]) in base]
 
 
+def _bent(row: dict) -> bool:
+    """Whether a stored push plan's chosen path is bent (a family member, '<start>/...')."""
+    return "/" in str(((row["plan"] or {}).get("details") or {}).get("chosen", ""))
+
+
+def widest_wins(rows: list[dict], planner: str) -> dict[str, tuple[dict, dict]]:
+    """{scene: (baseline row, ``planner`` row)}: per scene, the initialization (angle and
+    configuration) where the planner's robust P(success) exceeds the baseline's the most (ties:
+    the planner's higher P(success), then a bent path over a straight one, then the lower
+    angle); scenes without a pair judged robustly are left out."""
+    index = {(r["scene"], r["angle"], r["config_hash"], r["planner"]): r for r in rows}
+    pairs: dict[str, list[tuple[dict, dict]]] = {}
+    for row in rows:
+        base = index.get((row["scene"], row["angle"], row["config_hash"], "baseline"))
+        if row["planner"] != planner or base is None or not row["plan"]:
+            continue
+        if row["p_success"] is None or base["p_success"] is None:
+            continue
+        pairs.setdefault(row["scene"], []).append((base, row))
+
+    def key(pair: tuple[dict, dict]) -> tuple:
+        base, row = pair
+        return (row["p_success"] - base["p_success"], row["p_success"], _bent(row),
+                -row["angle"])
+
+    return {scene: max(found, key=key) for scene, found in pairs.items()}
+
+
 def comparison_name(row: dict) -> str:
     """The name a stored row's configuration is compared under: its own for the physics
     planner, "<configuration>/<planner>" for another."""

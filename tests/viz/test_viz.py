@@ -190,18 +190,15 @@ def _row(planner, angle, p, chosen="0.5"):
 
 
 def test_behaviour_pictures_picks_the_widest_win_then_a_bent_path():
-    sys.path.insert(0, str(REPO / "apps"))
-    try:
-        from behaviour_pictures import pick_rows
-    finally:
-        sys.path.pop(0)
+    from drake_clutter.experiments.paired import widest_wins
+
     rows = [_row("baseline", 4, 0.625), _row("push", 4, 0.75),
             _row("baseline", 5, 0.0), _row("push", 5, 0.25),
             _row("baseline", 6, 0.0), _row("push", 6, 0.25, chosen="0.5/r0m1"),
             _row("baseline", 7, None), _row("push", 7, 1.0)]  # 7: not judged robustly
-    ((base, push),) = pick_rows(rows, "push").values()
+    ((base, push),) = widest_wins(rows, "push").values()
     assert (base["angle"], push["angle"]) == (6, 6)
-    assert pick_rows(rows, "physics") == {}
+    assert widest_wins(rows, "physics") == {}
 
 
 @pytest.mark.parametrize("args, field", [

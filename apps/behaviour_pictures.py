@@ -6,11 +6,12 @@ plan and the baseline's, replayed in Bullet side by side (Sec. VI-A's figures).
     python apps/behaviour_pictures.py behaviours.db --out docs/behaviours
 
 Per scene of the store, the initialization shown is the one where the planner's robust
-P(success) exceeds the baseline's the most (`experiments.paired.widest_wins`). Its two stored plans are replayed once
-more in Bullet (the nominal replay, recorded) and drawn as `viz.pictures.frame_strip` draws
-them: ``--frames`` instants from the start to the end, the planner's copy on the right. One PNG
-per scene, ``<out>/<scene>.png``; a line per picture names the angle, the planner's path and
-both robust P(success). Needs Debian's ``chromium``. Bad input prints one line and exits 2.
+P(success) exceeds the baseline's the most (`experiments.paired.widest_wins`). Its two stored
+plans are replayed once more in Bullet (the nominal replay, recorded) and drawn as
+`viz.pictures.frame_strip` draws them: ``--frames`` instants from the start to the end, the
+planner's copy on the right. One PNG per scene, ``<out>/<scene>.png``; a line per picture names
+the angle, the planner's path and both robust P(success).
+Needs Debian's ``chromium``. Bad input prints one line and exits 2.
 """
 
 from __future__ import annotations

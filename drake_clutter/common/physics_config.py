@@ -412,6 +412,8 @@ class PushSearchConfig:
     jitter_progress: float = bounded(0.04, ge=0.0)
     # return the first straight start that keeps off the boxes without a search, flag; ours
     clear_first: bool = True
+    # return the baseline's own path when no judged path reads success or partial in phi, flag; ours
+    fallback: bool = True
     # P(success) in phi of the best start at which the search does not run, unitless; ours
     stop_at: float = bounded(1.0, ge=0.0, le=1.0)
     # seed of the search's draws (a candidate draws from [seed, angle index]), integer; ours

@@ -56,9 +56,12 @@ def selected_index(candidates: list[Candidate], baseline: BaselineConfig | None 
 def _push_score(details: dict) -> float | None:
     """The push planner's score of its chosen path: minus its P(success) in phi, plus a
     hundredth of its expected grade (ties); -1 for a clear straight path (no search: such
-    paths succeed in about 99 % of the judge's replays)."""
+    paths succeed in about 99 % of the judge's replays); 0.04 for the baseline's own path
+    returned as the fallback (P(success) 0 and the worst grade in phi)."""
     if details.get("clear"):
         return -1.0
+    if details.get("chosen") == "baseline":  # the fallback: nothing read a grasp in phi
+        return 0.04
     search = details.get("search") or {}
     verdict = (search.get("verdicts") or {}).get(details.get("chosen"))
     if verdict is None:

@@ -6,7 +6,11 @@ family from them all, scored by the judge in phi (`search.run_search`).
 
 One capsule arm with the boxes at rest and one shelf-clearance world are built per scene and
 serve every angle. A candidate the baseline could not plan comes back as it is, relabelled
-"push"; a search that finds nothing better returns its best start, recorded as such.
+"push"; a search that finds nothing better returns its best start, recorded as such. With
+``push_search.fallback``, a search whose pick reads neither success nor partial success in any
+member of phi returns the baseline's own path instead (``details["chosen"]`` "baseline", the
+search's pick kept in ``details["search"]["chosen"]``): among paths that all fail in phi, its
+reading of which failure is least bad is weakest on falls.
 """
 
 from __future__ import annotations
@@ -28,6 +32,9 @@ from drake_clutter.planners.physics.grasp_height import (
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
+
+# details["chosen"] of a search whose pick reads no grasp in phi: the baseline's own path
+FALLBACK = "baseline"
 
 
 def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Candidate]:
@@ -78,8 +85,18 @@ def push_candidate(scene: Scene, candidate: Candidate, config: Config, geometry:
     details = {"initialization": candidate.planner, "search": result.record,
                "chosen": result.name}
     trajectory = Trajectory(candidate.trajectory.times.copy(), result.q)
+    if config.push_search.fallback and not reads_a_grasp(result.record["verdicts"][result.name]):
+        details["chosen"] = FALLBACK
+        trajectory = Trajectory(candidate.trajectory.times.copy(),
+                                candidate.trajectory.q.copy())
     return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
                      timings=timings, details=details)
+
+
+def reads_a_grasp(verdict: dict) -> bool:
+    """Whether a judged path's verdict summary (`search.run_search`'s record) reads success or
+    partial success in any member of phi."""
+    return any(kind in ("success", "partial_success") for kind in verdict["kinds"])
 
 
 def clear_starts(scene: Scene, starts: dict[str, np.ndarray], config: Config,
@@ -110,7 +127,7 @@ def push_table(candidates: list[Candidate]) -> str:
         verdicts = search["verdicts"]
         counts = search["counts"]
         rows.append(f"{c.alpha:7.3f} {c.details['chosen']:>22} "
-                    f"{verdicts[c.details['chosen']]['p_success']:6.2f} "
+                    f"{verdicts[search['chosen']]['p_success']:6.2f} "
                     f"{verdicts[search['best_start']]['p_success']:6.2f} "
                     f"{counts['feasible']:>4}/{counts['drawn']:<4} "
                     f"{sum(c.timings.values()):6.1f}")

@@ -186,3 +186,42 @@ def test_the_plan_command_compares_the_push_planner_with_the_baseline(tmp_path, 
     assert [c.planner for c in candidates] == ["baseline", "push"]
     assert candidates[0].alpha == candidates[1].alpha and doc["planner"] == "both"
     assert "P phi" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("kinds, fallback, returned", [
+    (["failure_to_grasp", "objects_falling"], True, "baseline"),
+    (["failure_to_grasp", "partial_success"], True, "0.5/r0m0"),
+    (["failure_to_grasp", "objects_falling"], False, "0.5/r0m0")])
+def test_a_pick_that_reads_no_grasp_falls_back_to_the_baseline_path(kinds, fallback, returned,
+                                                                     setting, monkeypatch):
+    from drake_clutter.planners.push import planner as planner_module
+    from drake_clutter.planners.push.search import SearchResult
+
+    scene, trajectory, geometry, clearance = setting
+    bent = trajectory.q + 0.01
+    record = {"chosen": "0.5/r0m0", "verdicts": {"0.5/r0m0": {"kinds": kinds}}}
+    monkeypatch.setattr(planner_module, "run_search",
+                        lambda *args, **kw: SearchResult("0.5/r0m0", bent, record))
+    config = load_config(None, ["physics.grasp_heights=[]", "physics.approach_offsets=[]",
+                                "push_search.clear_first=false",
+                                f"push_search.fallback={str(fallback).lower()}"])
+    (baseline,) = plan_baseline(scene, config.baseline, alphas=[0.0])
+    candidate = planner_module.push_candidate(scene, baseline, config, geometry, clearance, 0)
+    assert candidate.details["chosen"] == returned
+    assert candidate.details["search"]["chosen"] == "0.5/r0m0"
+    expected = baseline.trajectory.q if returned == "baseline" else bent
+    np.testing.assert_array_equal(candidate.trajectory.q, expected)
+
+
+def test_the_push_planner_ranks_its_candidates_by_p_success_in_phi():
+    from drake_clutter.planners.selection import selection_score
+
+    def details(chosen, p, grade):
+        return {"chosen": chosen, "search": {"chosen": "0.5/r0m0", "verdicts": {
+            "0.5/r0m0": {"p_success": p, "expected_grade": grade}}}}
+
+    clear = selection_score("push", {"clear": ["0.5"], "chosen": "0.5"})
+    searched = selection_score("push", details("0.5/r0m0", 0.75, 0.5))
+    failing = selection_score("push", details("0.5/r0m0", 0.0, 2.0))
+    fallback = selection_score("push", details("baseline", 0.0, 2.0))
+    assert clear < searched < failing < fallback

@@ -4,6 +4,7 @@
     python apps/plan_scene.py                         # the default shipped scene, served live
     python apps/plan_scene.py --scene fig7_cascade    # a shipped scene by name, or a YAML file
     python apps/plan_scene.py --html out.html         # write a self-contained HTML file instead
+    python apps/plan_scene.py --picture out.png --no-browser   # and a picture of the replay
     python apps/plan_scene.py --planner baseline      # one planner only (baseline: seconds)
     python apps/plan_scene.py --planner physics --iterations 30   # the paper's Sec. V (slow)
 
@@ -164,9 +165,10 @@ def write_cost_curves(plans: dict, directory: Path, stem: str) -> list[Path]:
 
 
 def replay(scene, config, plans: dict, choice, variant: str, html: str | None,
-           wait: bool) -> None:
+           wait: bool, picture: str | None = None) -> None:
     """Replays the chosen plans side by side in Meshcat (or shows the scene when no plan is
-    usable), then writes ``html`` or serves (until Ctrl-C when ``wait``). ``choice``: (angle
+    usable), then writes ``html`` or serves (until Ctrl-C when ``wait``); with ``picture``,
+    also a PNG of 4 instants of the replay (`viz.pictures.frame_strip`). ``choice``: (angle
     index, planners) - one angle for all, `choose_angle` - or {planner: angle index} - each
     planner's own, `selections`."""
     from pydrake.geometry import Meshcat
@@ -180,6 +182,12 @@ def replay(scene, config, plans: dict, choice, variant: str, html: str | None,
         return
     per = choice if isinstance(choice, dict) else dict.fromkeys(choice[1], choice[0])
     views = [PlanView(n, plans[n][0][i], plans[n][1][i]) for n, i in per.items()]
+    if picture:
+        from drake_clutter.viz.pictures import frame_strip
+
+        title = f"{scene.name}: " + ", ".join(f"{v.label} alpha {v.candidate.alpha:+.3f}"
+                                              for v in views)
+        print(f"wrote {frame_strip(scene, views, config, picture, title=title, variant=variant)}")
     meshcat = Meshcat()
     summary = record_replay(scene, views, config, meshcat, variant)
     sides = ("right", "left") if len(views) == 2 else tuple(f"copy {i}" for i in range(len(views)))
@@ -208,6 +216,9 @@ def _parser() -> argparse.ArgumentParser:
                         help="which plans to make and show (default: both)")
     parser.add_argument("--html", help="write a self-contained HTML file instead of serving "
                         "(cost curves go next to it)")
+    parser.add_argument("--picture", metavar="PNG",
+                        help="also write a picture of 4 instants of the replay (headless "
+                        "Chromium)")
     parser.add_argument("--costs", metavar="DIR",
                         help="directory for the cost-curve PNGs (default: that of --html; "
                         "none are written when serving without --costs)")
@@ -245,7 +256,8 @@ def _check(args) -> None:
     if args.iterations is not None and args.planner != "physics":
         raise InputError("<command line>", "--iterations",
                          "sets Sec. V's iterations through phi: give it with --planner physics")
-    for flag, value in (("--html", args.html), ("--costs", args.costs)):
+    for flag, value in (("--html", args.html), ("--costs", args.costs),
+                        ("--picture", args.picture)):
         if value is None:
             continue
         folder = Path(value) if flag == "--costs" else Path(value).parent
@@ -274,7 +286,7 @@ def main(argv=None) -> int:
         else:
             choice = choose_angle(plans)
         replay(scene, config, plans, choice, args.variant, args.html,
-               wait=not args.html and not args.no_browser)
+               wait=not args.html and not args.no_browser, picture=args.picture)
     except InputError as exc:
         print(f"plan_scene: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

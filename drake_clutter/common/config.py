@@ -345,7 +345,7 @@ class VizConfig:
     # gap between the shelves of two side-by-side copies of a scene, m; ours
     copy_margin: float = bounded(0.3, ge=0.0)
     # camera offset from the shelf's top centre for one copy, m; ours
-    camera_offset: tuple[float, float, float] = bounded((1.0, 0.0, 0.85))
+    camera_offset: tuple[float, float, float] = bounded((0.45, 0.0, 0.75))
     # multiple of camera_offset added per further copy, unitless; ours
     camera_spread: float = bounded(0.6, ge=0.0)
     # arrow length per N of contact normal force, m/N; ours

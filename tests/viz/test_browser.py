@@ -52,14 +52,15 @@ def screenshot(html: Path, png: Path) -> np.ndarray:
 def drawn_parts(image: np.ndarray, blank: np.ndarray) -> dict[str, float]:
     """Share of the window's pixels, among those that differ from the empty page, that look
     like each part: the shelf's board (tan: hue 20-45 deg), the boxes (magenta obstacles, hue
-    280-320 deg, or the green target, hue 100-140 deg; saturated) and the arm (light grey: hardly
+    280-320 deg, or the green target, hue 100-140 deg; saturated, if paler behind a
+    refrigerator's translucent walls) and the arm (light grey: hardly
     any saturation, bright; the robot's base is dark grey)."""
     changed = np.abs(image - blank).max(axis=-1) > 0.08
     hsv = rgb_to_hsv(np.clip(image, 0.0, 1.0))
     hue, sat, val = hsv[..., 0] * 360, hsv[..., 1], hsv[..., 2]
     parts = {
         "shelf": (hue > 20) & (hue < 45) & (sat > 0.15) & (sat < 0.6) & (val > 0.45),
-        "boxes": (((hue > 280) & (hue < 320)) | ((hue > 100) & (hue < 140))) & (sat > 0.45),
+        "boxes": (((hue > 280) & (hue < 320)) | ((hue > 100) & (hue < 140))) & (sat > 0.25),
         "arm": (sat < 0.08) & (val > 0.6),
     }
     return {name: float((mask & changed).mean()) for name, mask in parts.items()}

@@ -35,7 +35,8 @@ from drake_clutter.common.config import load_config
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import dense_jacobians
 from drake_clutter.phi.derivatives import PhiDynamics
-from drake_clutter.phi.dynamics import ARM_NODE, build_phi, initial_state, make_spec
+from drake_clutter.phi.dynamics import ARM_NODE, initial_state, make_spec
+from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import NU, scene_box_states
 from drake_clutter.phi.workers import WorkerPool

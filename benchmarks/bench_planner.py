@@ -35,7 +35,8 @@ import time
 import numpy as np
 
 from drake_clutter.common.config import load_config
-from drake_clutter.phi.dynamics import build_phi, initial_state
+from drake_clutter.phi.dynamics import initial_state
+from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.phi.workers import WorkerPool

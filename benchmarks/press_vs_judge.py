@@ -38,7 +38,8 @@ from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.experiments.paired import bootstrap_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import StoreError, stored_plans
-from drake_clutter.phi.dynamics import build_phi, initial_state
+from drake_clutter.phi.dynamics import initial_state
+from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.planners.physics.geometry import ArmGeometry

@@ -3,7 +3,9 @@
 Each subpackage of ``drake_clutter`` may import only the rooms listed for it in ALLOWED (its
 own modules always); ``solvers`` imports no pydrake; nothing in the package, the apps or the
 benchmarks imports ``drake_clutter.cli`` or ``apps``; no test or benchmark reaches a helper
-through ``sys.path``; every subpackage says in its docstring what it owns and may import.
+through ``sys.path``; every subpackage says in its docstring what it owns and may import; no
+module imports itself back through others (an import cycle), at module level or inside a
+function.
 """
 
 from __future__ import annotations
@@ -109,6 +111,68 @@ def test_nothing_imports_the_command_line_or_the_apps_or_edits_sys_path(path):
         if module.startswith("drake_clutter.cli") and path.name != "cli.py":
             assert is_test, f"{path.relative_to(REPO)}:{line}: only tests may import the CLI"
         assert not module.startswith("test_"), f"{path.relative_to(REPO)}:{line}: imports a test"
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(REPO).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _import_graph(sources: dict[str, str]) -> dict[str, set[str]]:
+    """{module: the package's modules it imports} (``from a.b import c`` lands on a.b.c if that
+    is a module, else on a.b); a module's imports of its own enclosing packages are left out."""
+    def resolve(dotted: str) -> str | None:
+        parts = dotted.split(".")
+        while parts and ".".join(parts) not in sources:
+            parts.pop()
+        return ".".join(parts) or None
+
+    graph = {}
+    for module, source in sources.items():
+        targets = {resolve(dotted) for _, dotted in _imports(source, module)}
+        graph[module] = {t for t in targets
+                         if t is not None and t != module and not module.startswith(t + ".")}
+    return graph
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected sets of more than one module (Tarjan's algorithm)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = stack[stack.index(v):]
+            del stack[stack.index(v):]
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_module_imports_itself_back():
+    sources = {_module_name(p): p.read_text(encoding="utf-8") for p in _package_files()}
+    assert _cycles(_import_graph(sources)) == []
+
+
+def test_the_cycle_rule_catches_a_cycle_through_a_function_local_import():
+    sources = {"drake_clutter.phi.a": "from drake_clutter.phi.b import f\n",
+               "drake_clutter.phi.b": "def f():\n    from drake_clutter.phi import a\n",
+               "drake_clutter.phi.c": "import drake_clutter.phi.a\n"}
+    assert _cycles(_import_graph(sources)) == [["drake_clutter.phi.a", "drake_clutter.phi.b"]]
 
 
 def test_the_rule_catches_imports_against_the_direction():

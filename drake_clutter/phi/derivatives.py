@@ -55,7 +55,8 @@ from drake_clutter.phi.colouring import (
     node_output_rows,
     node_rows,
 )
-from drake_clutter.phi.dynamics import ARM_NODE, PhiSpec, build_phi
+from drake_clutter.phi.dynamics import ARM_NODE, PhiSpec
+from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.state import ARM_DIM, NU
 from drake_clutter.phi.workers import WorkerPool
 

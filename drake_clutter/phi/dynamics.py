@@ -477,13 +477,3 @@ class Phi(PhiBase):
             if a is not None and b is not None and a != b:
                 edges.add((min(a, b), max(a, b)))
         return edges
-
-
-def build_phi(spec: PhiSpec) -> PhiBase:
-    """The phi of ``spec`` in its engine (``spec.config.engine``): `Phi` in Drake, or
-    `mujoco_phi.MujocoPhi` (needs the optional package ``mujoco``)."""
-    if spec.config.engine == "mujoco":
-        from drake_clutter.phi.mujoco_phi import MujocoPhi  # optional: imported on demand
-
-        return MujocoPhi(spec)
-    return Phi(spec)

@@ -25,7 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_clutter.common.config import DynamicsConfig, WorldConfig
-from drake_clutter.phi.dynamics import PhiSpec, build_phi, initial_state, make_spec
+from drake_clutter.phi.dynamics import PhiSpec, initial_state, make_spec
+from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.state import box_state_to_pose, scene_box_states
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import robot_positions

@@ -12,7 +12,8 @@ from concurrent.futures.process import BrokenProcessPool
 
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import group_autodiff, group_differences
-from drake_clutter.phi.dynamics import PhiSpec, build_phi
+from drake_clutter.phi.dynamics import PhiSpec
+from drake_clutter.phi.engines import build_phi
 
 _WORKER_PHIS: OrderedDict = OrderedDict()  # in each worker process: spec key -> [Phi,
 # AutoDiffPhi or None (built on first use)]

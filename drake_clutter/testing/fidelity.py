@@ -12,7 +12,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from drake_clutter.phi.dynamics import build_phi, initial_state, make_spec
+from drake_clutter.phi.dynamics import initial_state, make_spec
+from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.scene.grading import off_the_board, tilt_angle
 

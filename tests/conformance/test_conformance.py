@@ -235,7 +235,6 @@ def test_the_mujoco_phi_passes_the_conformance_suite_at_the_reference_level():
     capsule as its actor) ends every box in the reference's class: single pushes 112 / 112,
     chains 16 / 16, edges 12 / 12, the thin box lands, none thrown; every squeeze reads as a
     jam and nothing else does (measured 2026-11-27: squeezes 1.36, 2.57, 5.15 mm)."""
-    pytest.importorskip("mujoco")
     summary = _suite_summary(_config("dynamics.engine=mujoco"))
     single = summary["single"]
     assert single["phi_agrees_with_mujoco"] == single["cases"] == 112, single

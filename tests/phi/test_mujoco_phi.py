@@ -10,30 +10,29 @@ import subprocess
 import sys
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
-mujoco = pytest.importorskip("mujoco")  # in the dev extras; optional for the library
-
-from drake_clutter.common.config import ConfigError, DynamicsConfig, load_config  # noqa: E402
-from drake_clutter.phi.colouring import dense_jacobians  # noqa: E402
-from drake_clutter.phi.derivatives import PhiDynamics  # noqa: E402
-from drake_clutter.phi.dynamics import (  # noqa: E402
+from drake_clutter.common.config import ConfigError, DynamicsConfig, load_config
+from drake_clutter.phi.colouring import dense_jacobians
+from drake_clutter.phi.derivatives import PhiDynamics
+from drake_clutter.phi.dynamics import (
     ARM_NODE,
     GRAVITY,
     Phi,
-    build_phi,
     initial_state,
     make_spec,
 )
-from drake_clutter.phi.mujoco_model import check_scene  # noqa: E402
-from drake_clutter.phi.mujoco_phi import MujocoPhi, contact_magnitudes  # noqa: E402
-from drake_clutter.phi.pruning import make_pruned_spec  # noqa: E402
-from drake_clutter.phi.state import ARM_DIM, scene_box_states  # noqa: E402
-from drake_clutter.robot import pr2  # noqa: E402
-from drake_clutter.scene.scenes import SceneError, save_scene  # noqa: E402
-from drake_clutter.testing.reach_paths import straight_reach  # noqa: E402
-from drake_clutter.trajectory import robot_positions  # noqa: E402
+from drake_clutter.phi.engines import build_phi
+from drake_clutter.phi.mujoco_model import check_scene
+from drake_clutter.phi.mujoco_phi import MujocoPhi, contact_magnitudes
+from drake_clutter.phi.pruning import make_pruned_spec
+from drake_clutter.phi.state import ARM_DIM, scene_box_states
+from drake_clutter.robot import pr2
+from drake_clutter.scene.scenes import SceneError, save_scene
+from drake_clutter.testing.reach_paths import straight_reach
+from drake_clutter.trajectory import robot_positions
 
 REPO = Path(__file__).resolve().parents[2]
 MUJOCO = DynamicsConfig(workers=0, engine="mujoco")

@@ -37,7 +37,8 @@ from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 
 from drake_clutter.common.config import Config, EvaluationConfig
-from drake_clutter.phi.dynamics import build_phi, initial_state, make_spec
+from drake_clutter.phi.dynamics import initial_state, make_spec
+from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import prune
 from drake_clutter.phi.state import ARM_DIM, scene_box_states
 from drake_clutter.planners.physics.ensemble import member_world

@@ -366,6 +366,8 @@ class VizConfig:
     fallen_rgba: tuple[float, float, float, float] = bounded((0.9, 0.05, 0.05, 1.0), ge=0.0, le=1.0)
     # how far the tipped/fallen overlay reaches past the box, m; ours
     highlight_padding: float = bounded(0.002, ge=0.0)
+    # height of the planner's name drawn in front of each copy of a replayed scene, m; ours
+    label_height: float = bounded(0.05, gt=0.0)
 
 
 @dataclass(frozen=True)

@@ -32,11 +32,12 @@ def frame_indices(num_frames: int, count: int) -> list[int]:
 
 
 def colour_crop(images: Sequence[np.ndarray], saturation: float = 0.2, above: float = 0.6,
-                margin: float = 0.08) -> tuple[slice, slice]:
+                below: float = 0.3, margin: float = 0.08) -> tuple[slice, slice]:
     """(rows, columns) of the frames to keep: the box around every pixel whose colour
     channels spread more than ``saturation`` (the shelf and the boxes; not the grey arm, floor
     or sky) in any of ``images`` (H, W, 3+ in [0, 1]), grown by ``above`` of its height upward
-    (the arm reaching in) and ``margin`` of its size on the other sides; all of it if none."""
+    (the arm reaching in), ``below`` of it downward (the planner's name before the board) and
+    ``margin`` of its width on either side; all of it if none."""
     colourful = np.zeros(images[0].shape[:2], dtype=bool)
     for image in images:
         rgb = image[..., :3]
@@ -46,7 +47,7 @@ def colour_crop(images: Sequence[np.ndarray], saturation: float = 0.2, above: fl
         return slice(None), slice(None)
     height, width = rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1
     top = max(0, int(rows[0] - above * height))
-    bottom = min(colourful.shape[0], int(rows[-1] + margin * height) + 1)
+    bottom = min(colourful.shape[0], int(rows[-1] + below * height) + 1)
     left = max(0, int(cols[0] - margin * width))
     right = min(colourful.shape[1], int(cols[-1] + margin * width) + 1)
     return slice(top, bottom), slice(left, right)

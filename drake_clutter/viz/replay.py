@@ -52,6 +52,7 @@ from drake_clutter.evaluation.recording import Recording
 from drake_clutter.scene.grading import off_the_board, tilt_angle
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, robot_positions
+from drake_clutter.viz.labels import label_mesh
 from drake_clutter.worlds.drake_world import World, build_planning_world
 
 _ARM_AND_FINGERS = slice(1, 10)  # ROBOT_JOINTS within bullet_world.MOTOR_ORDER
@@ -300,7 +301,25 @@ def draw_copies(scene: Scene, views: Sequence[PlanView], config: Config, meshcat
         _pose(copy, 0)
         copy.diagram.ForcedPublish(copy.context)  # creates the objects
         meshcat.SetTransform(copy.path, RigidTransform(copy_offset(scene, i, config)))
+        add_label(meshcat, scene, i, copy.view.label, config)
     return copies
+
+
+def add_label(meshcat: Meshcat, scene: Scene, index: int, text: str, config: Config) -> str:
+    """Draws ``text`` (`labels.label_mesh`, ``viz.label_height`` tall) in front of the
+    ``index``-th copy's shelf, just below its board's front edge, turned to face the camera
+    (``viz.camera_offset``), 10 cm before the board; returns its Meshcat path,
+    ``/drake/labels/<text>``."""
+    offset = np.asarray(config.viz.camera_offset, dtype=float)
+    tilt = np.arctan2(offset[2], np.hypot(offset[0], offset[1]))  # the camera's elevation
+    cx, cy = scene.shelf.center_xy
+    height = config.viz.label_height
+    p_WL = np.array([cx + scene.shelf.depth / 2 + 0.1, cy,
+                     scene.shelf.top_height - 1.5 * height]) + copy_offset(scene, index, config)
+    path = f"/drake/labels/{text}"
+    meshcat.SetObject(path, label_mesh(text, height))
+    meshcat.SetTransform(path, RigidTransform(RotationMatrix.MakeYRotation(-tilt), p_WL))
+    return path
 
 
 def pose_copies(copies: Sequence[_Copy], k: int) -> None:

@@ -175,5 +175,5 @@ def test_frame_indices_and_the_crop_of_a_blank_picture():
     grey = np.full((20, 30, 3), 0.5)
     assert colour_crop([grey]) == (slice(None), slice(None))
     grey[5:8, 10:20] = (0.9, 0.2, 0.8)  # a magenta box
-    rows, cols = colour_crop([grey], above=1.0, margin=0.0)
+    rows, cols = colour_crop([grey], above=1.0, below=0.0, margin=0.0)
     assert (rows.start, rows.stop, cols.start, cols.stop) == (2, 8, 10, 20)

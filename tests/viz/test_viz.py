@@ -114,6 +114,7 @@ def test_plan_scene_baseline_writes_the_replay_html(tmp_path):
     for box in load_shipped_scene(DEFAULT_SCENE).boxes:
         assert f"/drake/illustration/boxes/{box.name}" in paths
     assert not any(p.startswith("/drake/illustration_") for p in paths)  # one planner, one copy
+    assert "/drake/labels/baseline" in paths  # its name drawn in front of the shelf
     assert not list(tmp_path.glob("*.png"))  # no iLQR, no cost curves
 
 
@@ -210,3 +211,24 @@ def test_behaviour_pictures_bad_input_is_one_line_and_exit_2(args, field):
                             capture_output=True, text=True, timeout=120)
     assert result.returncode == 2 and field in result.stderr
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.stderr
+
+
+# ----------------------------------------------------------------------------- viz/labels.py
+
+
+def test_a_label_is_the_word_with_its_holes_open():
+    from drake_clutter.viz.labels import label_mesh, text_bitmap
+
+    o = text_bitmap("O", 24)
+    assert o.shape[0] == 24 and o.any()
+    middle = o[12]
+    filled = np.flatnonzero(middle)
+    assert not middle[filled[0]:filled[-1] + 1].all()  # the hole of the O stays open
+    mesh = label_mesh("push", 0.05)
+    lo, hi = (np.array([v for v in mesh.vertices()]).min(axis=0),
+              np.array([v for v in mesh.vertices()]).max(axis=0))
+    assert lo[0] == hi[0] == 0.0  # flat in x = 0
+    assert lo[2] >= 0.0 and hi[2] == pytest.approx(0.05)
+    assert lo[1] == pytest.approx(-hi[1])  # centred in y
+    with pytest.raises(ValueError):
+        text_bitmap(" ", 24)

@@ -8,7 +8,7 @@
 Every plan is replayed in Bullet as it is, then ``--replicas`` times with each interior knot's
 seven arm joints moved by eps x a seeded standard normal (rad; the first and last knots and
 the gripper left alone), for each ``--eps``. Printed per plan: its grade (Sec. VI-A's class,
-then boxes tipped or fallen: `judge.behaviour_grade`) and the replicas' grades; then per
+then boxes tipped or fallen: `scene.grading.behaviour_grade`) and the replicas' grades; then per
 planner and eps, how many replays changed grade. Without ``--db``: the baseline's plans of the
 shipped behaviour scenes at the given angle indices, each angle planned alone (as an
 experiment unit plans it). With ``--db``: every stored plan of a shipped scene in that

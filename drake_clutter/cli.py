@@ -5,7 +5,7 @@ Subcommands:
   scene validate FILE
   scene show FILE|NAME [--html FILE] [--variant V]
   scene list
-  plan SCENE --planner baseline|physics|both [--angles K] --out PLAN.json
+  plan SCENE --planner baseline|physics|push|both [--angles K] --out PLAN.json
   evaluate SCENE PLAN.json [--lift] [--robust K] [--seed S] --out OUTCOMES.json
   experiment run SPEC|TIER --db RUN.db [--workers N] [--executor local|ray]
   experiment rejudge RUN.db --db NEW.db [--set evaluation.FIELD=VALUE ...]
@@ -299,7 +299,7 @@ def build_parser() -> argparse.ArgumentParser:
     plan.add_argument("--planner", choices=(*planner_names(), ALL_PLANNERS), default="baseline",
                       help="the planner (default: baseline, Sec. IV; physics: Sec. V from the "
                       "baseline's candidates; push: the push search from them; both: baseline and "
-                      "physics)")
+                      "push)")
     plan.add_argument("--angles", type=int,
                       help="number of approach angles (default: baseline.num_angles)")
     plan.add_argument("--out", required=True, help="plan file (JSON) to write")
@@ -310,7 +310,7 @@ def build_parser() -> argparse.ArgumentParser:
     exp_cmds = exp.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
     run = exp_cmds.add_parser("run", help="run a spec's missing units (resumable)")
     run.add_argument("spec", help="an experiment spec (YAML) or a tier: smoke, small, paper, "
-                     "behaviours, probe, probe_half, candidates")
+                     "behaviours, probe, probe_half, heldout, candidates")
     run.add_argument("--db", required=True, help="SQLite store to fill (created if absent)")
     run.add_argument("--workers", type=int, default=2, help="processes / Ray CPUs (default 2)")
     run.add_argument("--executor", choices=("local", "ray"), default="local")

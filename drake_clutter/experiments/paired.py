@@ -278,8 +278,8 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
     """The paired comparison as Markdown: better / same / worse with the sign test, and the
     mean differences (physics minus baseline) with their intervals and Wilcoxon p-values."""
     level = f"{100 * (config or ReportConfig()).confidence:g} %"
-    lines = ["| configuration | pairs | physics better | same | worse | kinematic failures "
-             f"physics / baseline | sign test p | P(success) difference [{level} CI] | "
+    lines = ["| configuration | pairs | planner better | same | worse | kinematic failures "
+             f"planner / baseline | sign test p | P(success) difference [{level} CI] | "
              f"Wilcoxon p | expected grade difference [{level} CI] | Wilcoxon p | "
              f"P(success) gain of the better plan of each pair [{level} CI] | "
              f"the same, picked and read on different replays [{level} CI] |",

@@ -15,7 +15,7 @@ Definitions (Sec. VI-B), per (configuration, planner):
   success or partial success (dashed) against the number of objects, both planners.
 * Paired comparison (Sec. VI-A's grade, over many initializations): per configuration, each
   physics row against the baseline row of the same scene, angle and configuration, by
-  `judge.behaviour_grade` (class, then boxes tipped or fallen): better / same / worse,
+  `scene.grading.behaviour_grade` (class, then boxes tipped or fallen): better / same / worse,
   the kinematic failures of each, and a two-sided sign test on better against worse (ties
   left out). One plan per scene is a draw on toppling clutter; this is the fair reading.
 * Where the difference lies: per comparison, the scenes carrying the mean P(success)
@@ -401,8 +401,8 @@ def selected_plan_success(rows: list[dict], settings: ReportConfig | None = None
 def markdown_selected(table: list[dict], config: ReportConfig | None = None) -> str:
     """`selected_plan_success` as Markdown."""
     level = f"{100 * (config or ReportConfig()).confidence:g} %"
-    lines = ["| configuration | scenes | selected-plan P(success): physics / baseline | "
-             f"difference [{level} CI] | best angle's P(success): physics / baseline |",
+    lines = ["| configuration | scenes | selected-plan P(success): planner / baseline | "
+             f"difference [{level} CI] | best angle's P(success): planner / baseline |",
              "|---|---:|---:|---:|---:|"]
     for r in table:
         lines.append(f"| {r['configuration']} | {r['scenes']} | {r['physics_selected']:.3f} / "
@@ -498,11 +498,13 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "## Fig. 9: success and time per initialization against clutter", "",
             "![Fig. 9](fig9.png)", "",
             markdown_fig9(f9), "", PAPER_FIG9_NOTE, "",
-            "## Physics against the baseline from the same initialization (Sec. VI-A's grade)",
-            "", "Each physics plan against the baseline plan of the same scene, angle and "
+            "## Each planner against the baseline from the same initialization (Sec. VI-A's grade)",
+            "", "Each plan of a planner other than the baseline (the comparison's name: "
+            "<configuration>/<planner>, or the configuration alone for `physics`) against "
+            "the baseline plan of the same scene, angle and "
             "configuration: the outcome class first (success, partial, failure to grasp or "
             "objects falling, kinematic failure), then the boxes tipped or fallen. Per pair: "
-            "paired.csv. The differences are per initialization, physics minus baseline: "
+            "paired.csv. The differences are per initialization, planner minus baseline: "
             "P(success) (the robust judge's over its replays, else 1 or 0) and the expected "
             "grade class (lower is better), with a seeded percentile bootstrap interval. The "
             "last two columns are the most any choice between the pair's two plans could gain "
@@ -517,13 +519,14 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "difference: each scene's share (its summed differences over the comparison's "
             "pairs; the shares of a comparison sum to its mean), the "
             f"{config.contribution_scenes} largest, and the pairs that differ as baseline -> "
-            "physics (kind, P(success)). Per scene: contributions.csv.", "",
+            "planner (kind, P(success)). Per scene: contributions.csv.", "",
             markdown_contributions(contributions), "",
             "## The plan each planner would execute", "",
             "The paper scores a scene by its best angle, which only the judge can pick. Here "
             "each planner picks its own candidate without the judge - the baseline by its "
             "kinematic cost (Sec. IV's path objective), the physics planner by its objective "
-            "in phi (or ensemble score) - and the robust judge grades that one: selected-plan "
+            "in phi (or ensemble score), the push planner by its P(success) in phi - and the "
+            "robust judge grades that one: selected-plan "
             "P(success), per scene, beside the best angle's. Per configuration: selected.csv.",
             "", markdown_selected(selected, config), "",
             "## The physics planner's phi stages (Sec. V)", "",

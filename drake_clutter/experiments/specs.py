@@ -2,10 +2,10 @@
 
 An `ExperimentSpec` (YAML, loaded with `load_spec`) names the scenes (a named scene set of
 `generators.scene_set`, explicit generated levels and seeds, or shipped scenes), the planners
-(``baseline``: Sec. IV; ``physics``: Sec. V from the baseline's candidate), the approach
-angles (indices into `approach.approach_angles`, default all ``baseline.num_angles``) and
-named configurations: each a list of ``section.field=value`` overrides applied to the
-project `Config` after the spec's common ``overrides``.
+(``baseline``: Sec. IV; ``physics``: Sec. V from the baseline's candidate; ``push``: the push
+planner from it), the approach angles (indices into `approach.approach_angles`, default all
+``baseline.num_angles``) and named configurations: each a list of ``section.field=value``
+overrides applied to the project `Config` after the spec's common ``overrides``.
 
 `expand` turns a spec into `WorkUnit` s, one per (scene, planner, angle, configuration). A
 unit is plain data: `run_unit` rebuilds the scene and the configuration from it, plans that

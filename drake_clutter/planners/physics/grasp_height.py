@@ -5,7 +5,7 @@ the physics planner starts from the baseline's path at that height. Which height
 depends on the scene (the boxes beside the target that the fingers or the palm would land on,
 the part of the target the pads close on): on the probe tier the best of five heights per
 initialization succeeds 0.08 more often than the fixed one, and no fixed height is better on
-average (docs/physics_planner.md, 2026-11-26). The baseline cannot choose: it ignores the
+average (docs/log/physics_planner.md, 2026-11-26). The baseline cannot choose: it ignores the
 boxes. The physics planner sees them. With ``physics.grasp_heights`` the baseline is planned at
 each listed height too (the same angle and IK seeds), with ``physics.approach_offsets`` at the
 angle turned by each offset too (a few degrees: the straight line into the pre-grasp passes the
@@ -20,7 +20,7 @@ target's neighbours elsewhere), and one path becomes the start of the physics pl
   target's excepted) comes first; the baseline ignores the boxes, and at some heights its line
   happens to pass them. On the probe tier, offline over the baseline's five heights, +0.049
   [+0.014, +0.091] in P(success) against the fixed height where "press" made +0.026 (8 and 5
-  initializations up, none down; docs/physics_planner.md, 2026-11-26 evening).
+  initializations up, none down; docs/log/physics_planner.md, 2026-11-26 evening).
 - "phi": every path rolled out in each of phi's ensemble members (one phi per path: their
   starts differ), the judge's classes read on phi's state after the hold tail
   (`settled_class`, with the judge's own definitions from `scene.grading`) and averaged over

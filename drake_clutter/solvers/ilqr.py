@@ -40,7 +40,9 @@ records every backward pass: regulariser, predicted and actual decrease, step si
 the iteration cap, a relative decrease below ``tolerance``, the regulariser exceeding
 ``reg_max``, ``max_failed_searches`` failed line searches in one iteration, or an accepted
 step that moved no control by ``min_step`` or more (on a chaotic rollout, a decrease from a
-step that small is noise to exploit, not progress).
+step that small is noise to exploit, not progress). The loop that applies all of these is
+`descend`, shared with the spline solver (`spline.solve_spline`): a problem supplies the model,
+the proposed step and the line search.
 
 Parallel line search: dynamics that can run several forward passes at once (elsewhere: worker
 processes) say how many with ``parallel_passes`` (an int, > 1) and run them in
@@ -376,70 +378,80 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
     """Runs iLQR from the control sequence ``us_init`` (clamped into the bounds);
     ``difference`` as in the module docstring (None: plain vector states)."""
     settings = settings or ILQRSettings()
-    us = np.array(us_init, dtype=float)
-    lo, hi = per_knot_bounds(settings, us.shape)
+    problem = _Knots(dynamics, cost, x0, us_init, settings, difference)
     base = None if settings.step_limit is None else np.asarray(settings.step_limit, float)
-    radius = 1.0  # the trust region's, a fraction of step_limit (``trust_adapt``)
-    reg_scale = None if settings.reg_scale is None else np.asarray(settings.reg_scale, float)
-    us = np.clip(us, lo, hi)
-    if not np.all(np.isfinite(us)):
-        raise ValueError("the initial controls are not all finite")
-    timings = {"rollout": 0.0, "linearize": 0.0, "quadratize": 0.0, "backward": 0.0,
-               "forward": 0.0}
-    tic = time.perf_counter()
-    xs = rollout(dynamics, np.asarray(x0, dtype=float), us)
-    timings["rollout"] += time.perf_counter() - tic
-    terms = cost.terms(xs, us)
-    total = float(sum(terms.values()))
-    history, term_history, log = [total], [terms], []
-    mu = settings.reg_init
-    ndx = xs.shape[1] if difference is None else len(difference(xs[0], xs[0]))
-    K = np.zeros((len(us), us.shape[1], ndx))
-    k = np.zeros_like(us)
-    stop_reason = StopReason.MAX_ITERATIONS
-    iteration, alpha0 = 0, 1.0
+    history, term_history, log = [problem.total], [problem.terms], []
+    stop_reason, iteration = descend(problem, settings, base, history, term_history, log)
+    return ILQRResult(xs=problem.xs, us=problem.us, K=problem.K, k=problem.k,
+                      cost=problem.total, cost_history=history, term_history=term_history,
+                      iterations=iteration, stop_reason=stop_reason, timings=problem.timings,
+                      log=log)
+
+
+class DescentProblem(Protocol):
+    """What `descend` asks of a problem: its current objective (``total``, ``terms``), a local
+    model about its current path, a step proposed for a regulariser and a trust region, and a
+    line search along it that moves the path when it lowers the objective."""
+
+    open_loop: bool  # whether a step is rolled out without feedback (the log's entry)
+    total: float
+    terms: dict
+
+    def model(self) -> int:
+        """Builds the local model about the current path; returns the non-finite derivative
+        entries it zeroed."""
+
+    def propose(self, mu: float, limit: np.ndarray | None) -> tuple[float, float] | None:
+        """The model's step for regulariser ``mu`` within the trust region ``limit`` (None:
+        none): its predicted decrease as (d1, d2) (first- and second-order parts, negative
+        for a decrease), or None when the regularised model has no minimum."""
+
+    def search(self, entry: dict, alpha0: float, model: tuple[float, float],
+               limit: np.ndarray | None) -> bool:
+        """Rolls out the proposed step from size ``alpha0`` down and moves to the first that
+        lowers the objective enough, recording it in ``entry``; False when none does."""
+
+
+def descend(problem: DescentProblem, settings: ILQRSettings, base: np.ndarray | None,
+            history: list[float], term_history: list[dict], log: list[dict]
+            ) -> tuple[StopReason, int]:
+    """The regularised descent loop both solvers share (module docstring): per iteration one
+    model, then steps proposed with the regulariser raised until a line search succeeds or a
+    stop rule fires; the trust region's radius (a fraction of ``base``, the step limit)
+    adapted; the deadline, the cost floor and the stop rules applied. Appends every accepted
+    objective to ``history`` / ``term_history`` and every proposal to ``log``; returns the stop
+    reason and the iterations taken."""
+    mu, radius, alpha0 = settings.reg_init, 1.0, 1.0
+    stop_reason, iteration = StopReason.MAX_ITERATIONS, 0
     last = 0.0  # the last iteration's wall time (s), the next one's forecast
     while iteration < settings.max_iterations:
         if past(settings.deadline, last):
             stop_reason = StopReason.TIME_BUDGET
             break
         iteration += 1
-        tic = begun = time.perf_counter()
-        A, B = dynamics.linearize(xs, us)
-        timings["linearize"] += time.perf_counter() - tic
-        tic = time.perf_counter()
-        exp = cost.quadratize(xs, us)
-        timings["quadratize"] += time.perf_counter() - tic
-        nonfinite = zero_nonfinite(A, B, *vars(exp).values())
+        begun = time.perf_counter()
+        nonfinite = problem.model()
         accepted, failed = False, 0
         while (mu <= settings.reg_max and not past(settings.deadline)
                and (settings.max_failed_searches is None
                     or failed < settings.max_failed_searches)):
             limit = None if base is None else radius * base
-            qp_lo, qp_hi = lo, hi
-            if limit is not None and settings.trust_bounds:
-                qp_lo, qp_hi = np.maximum(lo, us - limit), np.minimum(hi, us + limit)
-            tic = time.perf_counter()
-            bp = backward_pass(A, B, exp, mu, us, qp_lo, qp_hi, settings.box_qp, reg_scale)
-            timings["backward"] += time.perf_counter() - tic
-            if bp is None:
+            proposed = problem.propose(mu, limit)
+            if proposed is None:
                 mu = max(mu * settings.reg_factor, settings.reg_min)
                 continue
-            k, K, (d1, d2) = bp
+            d1, d2 = proposed
             entry = {"mu": mu, "expected": -(d1 + d2), "alpha": 0.0, "actual": 0.0,
-                     "predicted": 0.0, "radius": radius, "open_loop": False, "tries": 0,
-                     "passes": 0, "nonfinite": nonfinite}
+                     "predicted": 0.0, "radius": radius, "open_loop": problem.open_loop,
+                     "tries": 0, "passes": 0, "nonfinite": nonfinite}
             log.append(entry)
-            if -(d1 + d2) < settings.tolerance * max(abs(total), 1e-12):
+            if -(d1 + d2) < settings.tolerance * max(abs(problem.total), 1e-12):
                 break  # the model predicts no worthwhile decrease: a stationary point
-            if settings.cost_floor is not None and -(d1 + d2) > total - settings.cost_floor:
+            if (settings.cost_floor is not None
+                    and -(d1 + d2) > problem.total - settings.cost_floor):
                 mu = max(mu * settings.reg_factor, settings.reg_min)
                 continue  # predicted below the floor: raise mu without a rollout
-            tic = time.perf_counter()
-            step = _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings,
-                                difference, limit, entry, alpha0, (d1, d2))
-            timings["forward"] += time.perf_counter() - tic
-            if step is not None:
+            if problem.search(entry, alpha0, (d1, d2), limit):
                 accepted = True
                 radius = adapted_radius(radius, entry, limit, settings)
                 break
@@ -453,27 +465,98 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
             stop_reason = stop_without_step(mu, failed, settings)
             iteration -= 1
             break
-        xs, us, terms, new_total = step
         last = time.perf_counter() - begun
         if settings.adaptive_step:
             alpha0 = min(1.0, 2.0 * entry["alpha"])
         mu = max(mu / settings.reg_factor, settings.reg_min)
-        improvement = (total - new_total) / max(abs(total), 1e-12)
-        total = new_total
-        history.append(total)
-        term_history.append(terms)
-        if improvement < settings.tolerance:
-            stop_reason = StopReason.CONVERGED
+        improvement = (history[-1] - problem.total) / max(abs(history[-1]), 1e-12)
+        history.append(problem.total)
+        term_history.append(problem.terms)
+        stop = stop_after_step(improvement, entry, history, settings)
+        if stop is not None:
+            stop_reason = stop
             break
-        if entry["step"] < settings.min_step:
-            stop_reason = StopReason.SMALL_STEP
-            break
-        if stalled(history, settings):
-            stop_reason = StopReason.STALLED
-            break
-    return ILQRResult(xs=xs, us=us, K=K, k=k, cost=total, cost_history=history,
-                      term_history=term_history, iterations=iteration, stop_reason=stop_reason,
-                      timings=timings, log=log)
+    return stop_reason, iteration
+
+
+def stop_after_step(improvement: float, entry: dict, history: list[float],
+                    settings: ILQRSettings) -> StopReason | None:
+    """The stop rules after an accepted step (tolerance, min_step, stall), or None."""
+    if improvement < settings.tolerance:
+        return StopReason.CONVERGED
+    if entry["step"] < settings.min_step:
+        return StopReason.SMALL_STEP
+    if stalled(history, settings):
+        return StopReason.STALLED
+    return None
+
+
+class _Knots:
+    """iLQR's problem for `descend`: one control per knot, a backward pass per proposal
+    (feedback gains K and feed-forward k), the line search of `_line_search`."""
+
+    open_loop = False
+
+    def __init__(self, dynamics, cost, x0, us_init, settings: ILQRSettings, difference):
+        self.dynamics, self.cost, self.settings, self.difference = (dynamics, cost, settings,
+                                                                    difference)
+        us = np.array(us_init, dtype=float)
+        self.lo, self.hi = per_knot_bounds(settings, us.shape)
+        self.reg_scale = (None if settings.reg_scale is None
+                          else np.asarray(settings.reg_scale, float))
+        us = np.clip(us, self.lo, self.hi)
+        if not np.all(np.isfinite(us)):
+            raise ValueError("the initial controls are not all finite")
+        self.timings = {"rollout": 0.0, "linearize": 0.0, "quadratize": 0.0, "backward": 0.0,
+                        "forward": 0.0}
+        tic = time.perf_counter()
+        self.xs = rollout(dynamics, np.asarray(x0, dtype=float), us)
+        self.timings["rollout"] += time.perf_counter() - tic
+        self.us = us
+        self.terms = cost.terms(self.xs, us)
+        self.total = float(sum(self.terms.values()))
+        ndx = self.xs.shape[1] if difference is None else len(difference(self.xs[0],
+                                                                          self.xs[0]))
+        self.K = np.zeros((len(us), us.shape[1], ndx))
+        self.k = np.zeros_like(us)
+
+    def model(self) -> int:
+        """A and B (``dynamics.linearize``) and the cost's expansion about the path."""
+        tic = time.perf_counter()
+        self.A, self.B = self.dynamics.linearize(self.xs, self.us)
+        self.timings["linearize"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        self.exp = self.cost.quadratize(self.xs, self.us)
+        self.timings["quadratize"] += time.perf_counter() - tic
+        return zero_nonfinite(self.A, self.B, *vars(self.exp).values())
+
+    def propose(self, mu: float, limit):
+        """The backward pass's policy (k, K kept) and its predicted decrease."""
+        settings = self.settings
+        qp_lo, qp_hi = self.lo, self.hi
+        if limit is not None and settings.trust_bounds:
+            qp_lo = np.maximum(self.lo, self.us - limit)
+            qp_hi = np.minimum(self.hi, self.us + limit)
+        tic = time.perf_counter()
+        bp = backward_pass(self.A, self.B, self.exp, mu, self.us, qp_lo, qp_hi,
+                           settings.box_qp, self.reg_scale)
+        self.timings["backward"] += time.perf_counter() - tic
+        if bp is None:
+            return None
+        self.k, self.K, decrease = bp
+        return decrease
+
+    def search(self, entry: dict, alpha0: float, model, limit) -> bool:
+        """`_line_search` along the policy; moves the path to the step it accepts."""
+        tic = time.perf_counter()
+        step = _line_search(self.dynamics, self.cost, self.xs, self.us, self.k, self.K,
+                            self.total, self.lo, self.hi, self.settings, self.difference,
+                            limit, entry, alpha0, model)
+        self.timings["forward"] += time.perf_counter() - tic
+        if step is None:
+            return False
+        self.xs, self.us, self.terms, self.total = step
+        return True
 
 
 def stop_without_step(mu: float, failed: int, settings: ILQRSettings) -> StopReason:

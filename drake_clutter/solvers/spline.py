@@ -14,7 +14,8 @@ gradient and Gauss-Newton Hessian in the P nu control-point numbers. The step mi
 model plus mu diag(reg_scale^2) within the control points' bounds and the trust region
 (`ilqr.box_qp_solve`); step sizes 1, 1/2, ... are rolled out open loop and the first that
 lowers the objective (by ``accept_ratio`` of the model's decrease) is taken. The regulariser,
-the trust region's adaptation, the cost floor and the stop rules are iLQR's (`ILQRSettings`;
+the trust region's adaptation, the cost floor and the stop rules are iLQR's, run by the same
+loop (`ilqr.descend`; `ILQRSettings`;
 ``feedback``, ``feedback_mask``, ``open_loop_fallback``, ``box_qp`` and ``trust_bounds`` do not
 apply: every step is open loop and box-constrained).
 
@@ -31,21 +32,17 @@ import time
 import numpy as np
 
 from drake_clutter.solvers.ilqr import (
-    TRUST_MIN,
     Cost,
     Dynamics,
     ILQRResult,
     ILQRSettings,
-    StopReason,
-    adapted_radius,
     box_qp_solve,
+    descend,
     forward_passes_of,
     nearest_psd,
     past,
     per_knot_bounds,
     rollout,
-    stalled,
-    stop_without_step,
     subtract,
     zero_nonfinite,
 )
@@ -169,91 +166,69 @@ class _State:
         return g, H, nonfinite
 
 
+class _Points:
+    """The control points' problem for `ilqr.descend`: the Gauss-Newton model in the points,
+    a box-constrained step per proposal (`ilqr.box_qp_solve`), the open-loop line search of
+    `_line_search`."""
+
+    open_loop = True
+
+    def __init__(self, s: _State, settings: ILQRSettings, lo_c, hi_c):
+        self.s, self.settings, self.lo_c, self.hi_c = s, settings, lo_c, hi_c
+        P, nu = s.C.shape
+        scale = (np.ones(nu) if settings.reg_scale is None
+                 else np.asarray(settings.reg_scale, float) ** 2)
+        self.reg = np.tile(scale, P)
+        self.du = np.zeros_like(s.us)
+
+    @property
+    def total(self) -> float:
+        return self.s.total
+
+    @property
+    def terms(self) -> dict:
+        return self.s.terms
+
+    def model(self) -> int:
+        """g and H about the current path (`_State.model`)."""
+        self.g, self.H, nonfinite = self.s.model()
+        return nonfinite
+
+    def propose(self, mu: float, limit):
+        """The points' step minimising the regularised model within their bounds and the
+        trust region (``limit`` per control, the same for every point)."""
+        s = self.s
+        P, nu = s.C.shape
+        lower, upper = (self.lo_c - s.C).ravel(), (self.hi_c - s.C).ravel()
+        if limit is not None:
+            trust = np.tile(limit, P)
+            lower, upper = np.maximum(lower, -trust), np.minimum(upper, trust)
+        tic = time.perf_counter()
+        solved = box_qp_solve(self.H + np.diag(mu * self.reg), self.g, lower, upper)
+        s.timings["backward"] += time.perf_counter() - tic
+        if solved is None:
+            return None
+        dC = solved[0]
+        self.dC = dC.reshape(P, nu)
+        return float(self.g @ dC), float(0.5 * dC @ self.H @ dC)
+
+    def search(self, entry: dict, alpha0: float, model, limit) -> bool:
+        """`_line_search` along the proposed step; the accepted change of the controls kept."""
+        if not _line_search(self.s, self.dC, self.settings, entry, alpha0, model, limit):
+            return False
+        self.du = entry.pop("du")
+        return True
+
+
 def _iterate(s: _State, settings: ILQRSettings, lo_c, hi_c) -> ILQRResult:
-    P, nu = s.C.shape
+    problem = _Points(s, settings, lo_c, hi_c)
     base = None if settings.step_limit is None else np.asarray(settings.step_limit, float)
-    scale = (np.ones(nu) if settings.reg_scale is None
-             else np.asarray(settings.reg_scale, float) ** 2)
-    reg = np.tile(scale, P)
     history, term_history, log = [s.total], [s.terms], []
-    mu, radius, alpha0 = settings.reg_init, 1.0, 1.0
-    stop_reason, iteration, du = StopReason.MAX_ITERATIONS, 0, np.zeros_like(s.us)
-    last = 0.0  # the last iteration's wall time (s), the next one's forecast
-    while iteration < settings.max_iterations:
-        if past(settings.deadline, last):
-            stop_reason = StopReason.TIME_BUDGET
-            break
-        iteration += 1
-        begun = time.perf_counter()
-        g, H, nonfinite = s.model()
-        accepted, failed = False, 0
-        while (mu <= settings.reg_max and not past(settings.deadline)
-               and (settings.max_failed_searches is None
-                    or failed < settings.max_failed_searches)):
-            limit = None if base is None else radius * base
-            lower, upper = (lo_c - s.C).ravel(), (hi_c - s.C).ravel()
-            if limit is not None:
-                trust = np.tile(limit, P)
-                lower, upper = np.maximum(lower, -trust), np.minimum(upper, trust)
-            tic = time.perf_counter()
-            solved = box_qp_solve(H + np.diag(mu * reg), g, lower, upper)
-            s.timings["backward"] += time.perf_counter() - tic
-            if solved is None:
-                mu = max(mu * settings.reg_factor, settings.reg_min)
-                continue
-            dC = solved[0]
-            d1, d2 = float(g @ dC), float(0.5 * dC @ H @ dC)
-            entry = {"mu": mu, "expected": -(d1 + d2), "alpha": 0.0, "actual": 0.0,
-                     "predicted": 0.0, "radius": radius, "open_loop": True, "tries": 0,
-                     "passes": 0, "nonfinite": nonfinite}
-            log.append(entry)
-            if -(d1 + d2) < settings.tolerance * max(abs(s.total), 1e-12):
-                break  # the model predicts no worthwhile decrease: a stationary point
-            if settings.cost_floor is not None and -(d1 + d2) > s.total - settings.cost_floor:
-                mu = max(mu * settings.reg_factor, settings.reg_min)
-                continue
-            dC = dC.reshape(P, nu)
-            if _line_search(s, dC, settings, entry, alpha0, (d1, d2), limit):
-                accepted = True
-                du = entry.pop("du")
-                radius = adapted_radius(radius, entry, limit, settings)
-                break
-            if settings.trust_adapt and base is not None and radius > TRUST_MIN:
-                radius = max(radius / 4.0, TRUST_MIN)
-                continue
-            failed += 1
-            mu = max(mu * settings.reg_factor, settings.reg_min)
-        if not accepted:
-            stop_reason = stop_without_step(mu, failed, settings)
-            iteration -= 1
-            break
-        last = time.perf_counter() - begun
-        if settings.adaptive_step:
-            alpha0 = min(1.0, 2.0 * entry["alpha"])
-        mu = max(mu / settings.reg_factor, settings.reg_min)
-        improvement = (history[-1] - s.total) / max(abs(history[-1]), 1e-12)
-        history.append(s.total)
-        term_history.append(s.terms)
-        stop = _stop_after_step(improvement, entry, history, settings)
-        if stop is not None:
-            stop_reason = stop
-            break
-    return ILQRResult(xs=s.xs, us=s.us, K=np.zeros((len(s.us), nu, s.ndx)), k=du,
-                      cost=s.total, cost_history=history, term_history=term_history,
-                      iterations=iteration, stop_reason=stop_reason, timings=s.timings,
-                      log=log)
-
-
-def _stop_after_step(improvement: float, entry: dict, history: list[float],
-                     settings: ILQRSettings) -> StopReason | None:
-    """iLQR's stop rules after an accepted step (tolerance, min_step, stall), or None."""
-    if improvement < settings.tolerance:
-        return StopReason.CONVERGED
-    if entry["step"] < settings.min_step:
-        return StopReason.SMALL_STEP
-    if stalled(history, settings):
-        return StopReason.STALLED
-    return None
+    stop_reason, iteration = descend(problem, settings, base, history, term_history, log)
+    return ILQRResult(xs=s.xs, us=s.us, K=np.zeros((len(s.us), s.us.shape[1], s.ndx)),
+                      k=problem.du, cost=s.total, cost_history=history,
+                      term_history=term_history, iterations=iteration,
+                      stop_reason=stop_reason, timings=s.timings, log=log)
 
 
 def _line_search(s: _State, dC: np.ndarray, settings: ILQRSettings, entry: dict,

@@ -21,8 +21,8 @@ best outcome of the compared planner among those both planners made a plan for (
 baseline outcome, then the first); with ``--show selected``, each planner's own choice, the
 candidate it would execute ranked without the judge (starred in the table;
 drake_clutter/planners/selection.py). Cost curves of Sec. V's plans (each term per iLQR
-iteration) go to PNG files. Prints the Meshcat URL and serves until
-Ctrl-C unless --html or --no-browser is given. Bad input prints one line and exits 2.
+iteration) go to PNG files. Prints the Meshcat URL and serves until Ctrl-C unless --html or
+--no-browser is given. Bad input prints one line and exits 2.
 """
 
 from __future__ import annotations

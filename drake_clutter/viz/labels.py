@@ -2,7 +2,8 @@
 (`matplotlib.textpath.TextPath`) sampled on a grid, each row's filled runs drawn as flat
 quads of one `TriangleSurfaceMesh` (double-sided), standing upright in a vertical plane.
 
-The replay puts one above each copy of the scene, naming the planner whose plan it shows.
+The replay puts one in front of each copy's shelf (`replay.add_label`), naming the planner whose
+plan it shows.
 """
 
 from __future__ import annotations

@@ -112,8 +112,9 @@ def choose_height(scene: Scene, candidate: Candidate, config: Config, pool=None,
     "press": the first candidate (the start's first) whose path does not press on a box's top
     (`penetration.path_depths` at most ``press_tolerance``), else the start. "clear": the
     first that neither presses nor enters a non-target box's side deeper than
-    ``side_tolerance``, else the first ranked by (presses, enters a side). "phi": the lowest mean `settled_class` over phi's
-    ``ensemble.members`` members (inf where phi fails in any); ties to the earlier.
+    ``side_tolerance``, else the first ranked by (presses, enters a side). "phi": the lowest
+    mean `settled_class` over phi's ``ensemble.members`` members (inf where phi fails in any);
+    ties to the earlier.
     ``geometry``: the scene's capsule arm with the boxes at rest (built here if None)."""
     found = height_candidates(scene, candidate, config)
     geometry = geometry or ArmGeometry(scene, "capsules")

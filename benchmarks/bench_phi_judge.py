@@ -8,19 +8,15 @@ against the reference measured in the same run.
 Per initialization (kind:level:seed:angle of the probe tier's generator): the baseline's
 straight paths at the push planner's grasp heights and the search's first-round draws
 (`aim.draw`, seeded like the search), judged in the same K members of phi
-(``push_search.engine``) three ways:
+(``push_search.engine``) two ways:
 
-* **reference**: each member's phi built as a planning stage builds it (`stage_problem`:
-  pruned, checked by a rollout of every path, c_grasp and the hold tail's objective), every
-  path rolled out and priced by the objective, then rolled out again for its jam measure
-  (`ensemble.member_rollouts` with ``jam=True``): how the judge in phi ran before;
-* **judge_paths**: one phi per member, one rollout per path with its jam measured on its own
-  steps (`phi_judge.judged_rollouts`);
+* **complete** (the reference): one phi per member, one rollout per path through its knots and
+  the hold, its jam measured on its own steps (`phi_judge.judged_rollouts`);
 * **short**: ``judge_paths(..., complete=False)``, the search's: no rollout for a plan its
   checks fail, a rollout stops once its jam reads a kinematic failure.
 
-Printed per initialization and in total: seconds of each, their ratio to the reference, and
-the member readings that differ from the reference's (0 expected: the same classes).
+Printed per initialization and in total: seconds of each, the reference's over the short
+judge's, and the member readings that differ between them (0 expected: the same classes).
 """
 
 from __future__ import annotations
@@ -32,20 +28,15 @@ from dataclasses import replace
 import numpy as np
 
 from drake_clutter.common.config import load_config
-from drake_clutter.planners.approach import static_planning_world
-from drake_clutter.planners.clearance import ShelfClearance
-from drake_clutter.planners.physics.ensemble import member_rollouts
-from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.grasp_height import height_candidates, start_key
-from drake_clutter.planners.physics.phi_judge import (
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.phi_judge import (
     PhiVerdict,
     judge_paths,
-    member_findings,
-    plan_checks,
 )
 from drake_clutter.planners.push.aim import draw
 from drake_clutter.planners.push.search import Search
 from drake_clutter.planners.registry import get_planner
+from drake_clutter.planners.starts import height_candidates, start_key
 from drake_clutter.scene.generators import generate_scene
 
 DEFAULT_INITS = ("fridge:12:14015:4", "bookshelf:10:4015:4")
@@ -57,11 +48,11 @@ def search_paths(item: str, config):
     kind, level, seed, angle = item.split(":")
     scene = generate_scene(kind, int(level), int(seed), config.generator)
     (candidate,) = get_planner("baseline").plan(scene, config, [int(angle)])
-    found = height_candidates(scene, candidate, config)
+    context = PlanningContext(scene, config)
+    found = height_candidates(context, candidate)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
-    geometry = ArmGeometry(scene, "capsules")
-    search = Search(scene, starts, candidate.trajectory.times, config, geometry,
-                    ShelfClearance(static_planning_world(scene)))
+    search = Search(scene, starts, candidate.trajectory.times, config, context.arm(),
+                    context.clearance)
     rng = np.random.default_rng([config.push_search.seed, int(angle), 0])
     names = list(starts)
     for i in range(config.push_search.samples):
@@ -69,22 +60,6 @@ def search_paths(item: str, config):
         frame, met = search.frame(start)
         search.add(f"{start}/r0m{i}", start, draw(rng, frame, met, config.push))
     return scene, {n: s.q for n, s in search.samples.items()}, candidate.trajectory.times
-
-
-def reference(scene, paths, times, config) -> dict[str, PhiVerdict]:
-    """The verdicts as the judge in phi read them before: `member_rollouts` (the planning
-    stage's problem, the objective's terms, a second rollout for the jam)."""
-    geometry = ArmGeometry(scene, "capsules")
-    checks = {n: plan_checks(scene, geometry, q, times, config) for n, q in paths.items()}
-    held = replace(config, physics=replace(config.physics,
-                                           hold_knots=config.ensemble.judge_hold_knots))
-    per_member = []
-    for member in range(config.ensemble.members):
-        rolled = member_rollouts(scene, paths, held, member, None,
-                                 float(np.diff(times[:2])[0]), jam=True)
-        per_member.append({n: member_findings(scene, geometry, q, rolled[n], *checks[n],
-                                              config.evaluation) for n, q in paths.items()})
-    return {n: PhiVerdict.from_findings([m[n] for m in per_member], config) for n in paths}
 
 
 def differing(a: dict[str, PhiVerdict], b: dict[str, PhiVerdict]) -> int:
@@ -104,25 +79,23 @@ def main(argv=None) -> None:
     judged = replace(config, dynamics=replace(config.dynamics,
                                               engine=config.push_search.engine),
                      ensemble=replace(config.ensemble, members=args.members))
-    totals = np.zeros(3)
-    print(f"{'initialization':>22} {'paths':>5} {'reference s':>11} {'judge s':>8} "
-          f"{'short s':>8} {'ratio':>6} {'short':>6} {'differ':>6}")
+    totals = np.zeros(2)
+    print(f"{'initialization':>22} {'paths':>5} {'complete s':>10} {'short s':>8} {'ratio':>6} "
+          f"{'differ':>6}")
     for item in args.inits:
         scene, paths, times = search_paths(item, config)
+        geometry = PlanningContext(scene, judged).arm()
         seconds, verdicts = [], []
-        for way in ("reference", "judge_paths", "short"):
+        for complete in (True, False):
             tic = time.perf_counter()
-            verdicts.append(reference(scene, paths, times, judged) if way == "reference"
-                            else judge_paths(scene, paths, times, judged,
-                                             complete=way == "judge_paths"))
+            verdicts.append(judge_paths(scene, paths, times, judged, geometry,
+                                        complete=complete))
             seconds.append(time.perf_counter() - tic)
         totals += seconds
-        print(f"{item:>22} {len(paths):5d} {seconds[0]:11.1f} {seconds[1]:8.1f} "
-              f"{seconds[2]:8.1f} {seconds[0] / seconds[1]:6.2f} {seconds[0] / seconds[2]:6.2f}"
-              f" {differing(verdicts[0], verdicts[1]) + differing(verdicts[0], verdicts[2]):6d}")
-    print(f"{'total':>22} {'':>5} {totals[0]:11.1f} {totals[1]:8.1f} {totals[2]:8.1f} "
-          f"{totals[0] / totals[1]:6.2f} {totals[0] / totals[2]:6.2f}")
-
+        print(f"{item:>22} {len(paths):5d} {seconds[0]:10.1f} {seconds[1]:8.1f} "
+              f"{seconds[0] / seconds[1]:6.2f} {differing(verdicts[0], verdicts[1]):6d}")
+    print(f"{'total':>22} {'':>5} {totals[0]:10.1f} {totals[1]:8.1f} "
+          f"{totals[0] / totals[1]:6.2f}")
 
 if __name__ == "__main__":
     main()

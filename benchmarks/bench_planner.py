@@ -41,6 +41,7 @@ from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.physics.pipeline import optimise_candidate
 from drake_clutter.scene.generators import generate_scene, scene_set
 
@@ -92,7 +93,7 @@ def bench(kind: str, level: int, config, angles: int, pool, seed: int | None = N
     candidate = usable[0]
     reference = phi_step_seconds(scene, candidate, config)
     tic = time.perf_counter()
-    plan = optimise_candidate(scene, candidate, config, pool)
+    plan = optimise_candidate(PlanningContext(scene, config), candidate, pool)
     total = time.perf_counter() - tic
     t = plan.timings
     stages = plan.details.get("stages", {})

@@ -33,6 +33,7 @@ from drake_clutter.phi.derivatives import box_speeds
 from drake_clutter.phi.state import box_state_to_pose
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.physics.stage import stage_problem
 from drake_clutter.scene.scenes import SceneError, load_shipped_scene
 
@@ -73,7 +74,7 @@ def measure(name: str, angle: int, config, knots: int) -> dict:
     if not candidate.ok:
         return {"scene": name, "angle": angle, "error": candidate.reason}
     q = candidate.trajectory.q
-    with stage_problem(scene, q, config, "capsules") as problem:
+    with stage_problem(PlanningContext(scene, config), q, "capsules") as problem:
         layout, dynamics = problem.dynamics.layout, problem.dynamics
         x0 = problem.z0[:layout.nx]
         xs = dynamics.rollout(x0, q[1:])

@@ -4,11 +4,11 @@
     python benchmarks/phi_judge_gate.py --db RUN.db [--db RUN2.db ...]
         [--configurations NAME ...] [--planners baseline] [--set FIELD=VALUE ...]
         [--members 8] [--jobs 2] [--cache FILE.jsonl] [--examples 5] [--read K ...]
-        [--cached-only] [--readings jam press jam_or_press]
+        [--cached-only]
 
 Every distinct stored plan with robust replays (default: the baseline's plans, which no planner
 optimised against the score; the ``candidates`` tier holds 15 per initialization) is judged in
-phi (`planners.physics.phi_judge.judge_paths`): the plans of one initialization (scene and
+phi (`planners.phi_judge.judge_paths`): the plans of one initialization (scene and
 angle) meet the same ``--members`` members, the planner's own seeds, never the judge's.
 
 Printed:
@@ -24,8 +24,6 @@ Printed:
 ``--cache`` keeps each initialization's verdicts (one JSON line), so a stopped run resumes;
 ``--cached-only`` reads the cached initializations alone and judges nothing; ``--read`` also
 prints the pair agreement over the first K members of each verdict (K <= ``--members``).
-The rollouts keep their findings (`phi_judge.PhiFindings`), so every kinematic reading of
-``--readings`` is printed from the same rollouts.
 """
 
 from __future__ import annotations
@@ -35,7 +33,6 @@ import json
 import sys
 from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -45,7 +42,8 @@ from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.experiments.paired import wilson_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import stored_plans
-from drake_clutter.planners.physics.phi_judge import PhiVerdict, judge_paths
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.phi_judge import PhiVerdict, judge_paths
 from drake_clutter.scene.grading import GRADE_CLASSES, OUTCOME_KINDS
 
 KINDS = OUTCOME_KINDS[:5]  # the five classes of Sec. III (no planner failures here)
@@ -72,14 +70,16 @@ def judge_one(job) -> dict:
     scene = stored_scene(scene_name, config)
     times = np.asarray(plans[0]["times"])
     paths = {p["digest"]: np.asarray(p["q"]) for p in plans}
+    geometry = PlanningContext(scene, config).arm()
     same = all(len(p["times"]) == len(times) for p in plans)
     verdicts = {}
     if same:
-        verdicts = {k: v.to_data() for k, v in judge_paths(scene, paths, times, config).items()}
+        found = judge_paths(scene, paths, times, config, geometry)
+        verdicts = {k: v.to_data() for k, v in found.items()}
     else:  # knots differ: one call per plan
         for p in plans:
             one = judge_paths(scene, {p["digest"]: np.asarray(p["q"])},
-                              np.asarray(p["times"]), config)
+                              np.asarray(p["times"]), config, geometry)
             verdicts.update({k: v.to_data() for k, v in one.items()})
     return {"scene": scene_name, "angle": angle, "verdicts": verdicts}
 
@@ -201,8 +201,6 @@ def main(argv=None) -> int:
     parser.add_argument("--examples", type=int, default=3)
     parser.add_argument("--read", type=int, nargs="*", default=[])
     parser.add_argument("--cached-only", action="store_true")
-    parser.add_argument("--readings", nargs="*", default=["jam", "press", "jam_or_press"],
-                        choices=["jam", "press", "jam_or_press"])
     args = parser.parse_args(argv)
     try:
         config = load_config(args.config, [*args.overrides, f"ensemble.members={args.members}",
@@ -219,18 +217,16 @@ def main(argv=None) -> int:
         plans = {k: v for k, v in plans.items() if k in verdicts}
     else:
         verdicts = judge_all(plans, config, args.jobs, args.cache)
-    for reading in args.readings:
-        cfg = replace(config, ensemble=replace(config.ensemble, kinematic_reading=reading))
-        read = {key: {d: PhiVerdict.from_findings(v["findings"], cfg).to_data()
-                      for d, v in vs.items()} for key, vs in verdicts.items()}
-        report(plans, read, cfg, args)
+    read = {key: {d: PhiVerdict.from_findings(v["findings"], config).to_data()
+                  for d, v in vs.items()} for key, vs in verdicts.items()}
+    report(plans, read, config, args)
     return 0
 
 
 def report(plans, verdicts, config, args) -> None:
     """The pair agreement, the confusion matrices and the misread plans of one reading."""
-    print(f"\n=== phi {config.dynamics.engine}, {args.members} members, kinematic reading "
-          f"{config.ensemble.kinematic_reading}, hold {config.ensemble.judge_hold_knots} knots")
+    print(f"\n=== phi {config.dynamics.engine}, {args.members} members, "
+          f"hold {config.ensemble.judge_hold_knots} knots")
     for name, (agree, disagree, ties) in pair_agreement(plans, verdicts).items():
         n = agree + disagree
         low, high = wilson_interval(agree, n)

@@ -31,6 +31,7 @@ import numpy as np
 from drake_clutter.common.config import load_config
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.physics.pipeline import preprocess, solver_settings
 from drake_clutter.planners.physics.stage import stage_problem
 from drake_clutter.scene import scenes
@@ -51,7 +52,7 @@ def start_path(args, config) -> tuple[object, np.ndarray]:
         scene = scenes.load_shipped_scene(args.scene)
         alpha = float(scene.provenance.parameters["alpha"])
         (candidate,) = plan_baseline(scene, config.baseline, alphas=[alpha])
-    q, _ = preprocess(scene, candidate.trajectory.q, config)
+    q, _ = preprocess(PlanningContext(scene, config), candidate.trajectory.q)
     return scene, q
 
 
@@ -124,7 +125,8 @@ def main() -> None:
     knot_time = config.baseline.knot_time
     pool = WorkerPool(config.dynamics.workers) if config.dynamics.workers > 0 else None
     try:
-        with stage_problem(scene, q, config, args.variant, pool, knot_time) as problem:
+        with stage_problem(PlanningContext(scene, config), q, args.variant, pool,
+                           knot_time) as problem:
             print(f"{scene.name}: {problem.augmented.layout.num_boxes} boxes in phi, "
                   f"{args.variant} arm, {len(q) - 1} knots")
             sensitivity(problem, q[1:], args.directions, args.seed)

@@ -9,7 +9,7 @@ The judge's most common kinematic failure (Sec. III) is a box pushed into the bo
 contact a kinematic arm that comes down on a box's top meets a box that cannot make way, and
 the board reads hundreds of newtons; the compliant phi reads a few. This takes every distinct
 stored plan with robust replays (both planners, every configuration; a plan stored twice is
-counted once) and measures its deepest press (`penetration.path_press`: the arm in geometry
+counted once) and measures its deepest press (`geometry.path_press`: the arm in geometry
 ``--variant``, the boxes at rest, ``--substeps`` configurations per knot interval, pairs whose
 normal from the box to the arm has an up component above ``--normal-z``).
 
@@ -42,8 +42,7 @@ from drake_clutter.phi.dynamics import initial_state
 from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import scene_box_states
-from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.penetration import path_press
+from drake_clutter.planners.geometry import ArmGeometry, path_press
 from drake_clutter.robot.pr2 import VARIANTS
 
 THRESHOLDS_MM = (0.5, 5.0, 20.0)  # press depths reported, mm

@@ -48,10 +48,8 @@ from drake_clutter.evaluation.judge import evaluate
 from drake_clutter.experiments.paired import bootstrap_interval
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import stored_plans
-from drake_clutter.planners.approach import static_planning_world
-from drake_clutter.planners.clearance import ShelfClearance
-from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.phi_judge import judge_paths
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.phi_judge import judge_paths
 from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
 from drake_clutter.planners.push.family import feasible, member_path
 from drake_clutter.trajectory import Trajectory
@@ -87,8 +85,8 @@ def ceiling_one(job) -> dict:
     """One initialization: the members drawn and judged, the three picks read fresh."""
     (scene_name, angle), straights, config, args = job
     scene = stored_scene(scene_name, config)
-    geometry = ArmGeometry(scene, "capsules")
-    clearance = ShelfClearance(static_planning_world(scene))
+    context = PlanningContext(scene, config)
+    geometry, clearance = context.arm(), context.clearance
     ranges = config.push
     plans = {name: {**s, "member": None} for name, s in straights.items()}
     drawn = kept = 0
@@ -139,7 +137,7 @@ def _phi_picks(scene, geometry, plans: dict, straights: dict, args) -> dict[str,
                                 f"ensemble.members={args.phi_members}"])
     times = np.asarray(next(iter(plans.values()))["times"])
     verdicts = judge_paths(scene, {n: np.asarray(p["q"]) for n, p in plans.items()}, times,
-                           config, geometry=geometry)
+                           config, geometry)
     for name, verdict in verdicts.items():
         plans[name]["phi"] = {"p_success": verdict.p_success,
                               "expected_grade": verdict.expected_grade}

@@ -20,6 +20,7 @@ from enum import StrEnum
 from pathlib import Path
 
 import numpy as np
+from pydrake.math import BsplineBasis, KnotVectorType
 
 from drake_clutter.common.config import EvaluationConfig
 from drake_clutter.common.typed_yaml import InputError
@@ -226,3 +227,13 @@ def plan_limit_violation(trajectory: Trajectory, config: EvaluationConfig) -> st
             return (f"{name} moves at {speeds[bad[0], j]:.2f} rad/s (after knot {bad[0]}), "
                     f"above its {allowed:.2f} rad/s limit")
     return ""
+
+
+def spline_basis(num_knots: int, num_points: int, order: int) -> np.ndarray:
+    """(num_knots, num_points) values of a clamped uniform B-spline basis of ``order`` at
+    ``num_knots`` evenly spaced parameters: knot values = basis @ control points. The first
+    and last rows pick the first and last control points."""
+    basis = BsplineBasis(order, num_points, KnotVectorType.kClampedUniform, 0.0, 1.0)
+    s = np.linspace(0.0, 1.0, num_knots)
+    return np.array([[basis.EvaluateBasisFunctionI(i, x) for i in range(num_points)]
+                     for x in s])

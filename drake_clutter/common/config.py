@@ -3,12 +3,12 @@
 Each field has one comment line above it: what it is, its unit, and its source - a section or
 table of Kitaev et al., ICRA 2015 ("Sec. V", "Table II"), or "ours" where the paper leaves the
 value open. The sections of phi and the physics planner (`DynamicsConfig`, `PhysicsConfig`,
-`EnsembleConfig`) live in `physics_config` and are imported here. The reasons and measurements
-behind the values live in docs/decisions.md, under the field's dotted name
-(``physics.w_force``); ``drake-clutter config show`` prints the values. Load with
-``load_config(path, overrides)``: a YAML file may set any subset of fields (unknown keys are
-errors), and ``overrides`` are ``section.field=value`` strings from the command line
-(``--set generator.bookshelf.board_width=0.8``), applied after the file.
+`EnsembleConfig`) live in `physics_config` and are imported here. Why each value is what it is:
+one line per field in docs/decisions.md, the dated measurements under the field's dotted name
+(``physics.w_force``) in docs/log/decisions.md; ``drake-clutter config show`` prints the
+values. Load with ``load_config(path, overrides)``: a YAML file may set any subset of fields
+(unknown keys are errors), and ``overrides`` are ``section.field=value`` strings from the
+command line (``--set generator.bookshelf.board_width=0.8``), applied after the file.
 """
 
 from __future__ import annotations

@@ -1,10 +1,11 @@
-"""The physics planner's sections of the one configuration (`config.Config`): phi as iLQR's
-dynamics (``dynamics``), the planner itself (``physics``, Sec. V, Tables I and II) and phi's
-ensemble (``ensemble``, beyond the paper).
+"""The physics planners' sections of the one configuration (`config.Config`): phi as iLQR's
+dynamics (``dynamics``), Sec. V's planner (``physics``, Tables I and II), phi's ensemble
+(``ensemble``) and the push planner's family and search (``push``, ``push_search``; beyond the
+paper).
 
 The same rule as in `config`: each field has one comment line above it (what, unit, source:
-a section or table of the paper, or "ours"); the reasons and measurements behind the values
-live in docs/decisions.md under the field's dotted name (``physics.hold_knots``).
+a section or table of the paper, or "ours"); why each value is what it is: one line per field
+in docs/decisions.md, the dated measurements in docs/log/decisions.md.
 """
 
 from __future__ import annotations
@@ -215,46 +216,16 @@ class PhysicsConfig:
     keep_open: bool = True
     # the plan is the best in one phi of the baseline, pre- and post-processed paths, flag; ours
     select_in_phi: bool = True
-    # select ranks paths that press on a box's top (path_press) after the rest, flag; ours
-    select_press: bool = False
-    # grasp heights also tried per angle (height_choice picks), of target height, unitless; ours
+    # grasp heights also tried per angle (the first clear start is taken), of target height; ours
     grasp_heights: tuple[float, ...] = bounded((0.6, 0.7, 0.8, 0.9), gt=0.0, le=1.0)
-    # approach angle offsets also tried at every grasp height (height_choice picks), rad; ours
+    # approach angle offsets also tried at every grasp height (the first clear start), rad; ours
     approach_offsets: tuple[float, ...] = bounded((), ge=-0.5, le=0.5)
-    # grasp height chosen by the press check, it and side contact ("clear") or phi, choice; ours
-    height_choice: Literal["phi", "press", "clear"] = "clear"
-    # deepest press (physics.press_normal_z) the height choice and select count as none, m; ours
+    # deepest press (physics.press_normal_z) a straight start counts as none, m; ours
     press_tolerance: float = bounded(0.0005, ge=0.0)
-    # deepest side penetration of a non-target box the "clear" height choice counts as none, m; ours
+    # deepest entry into a non-target box's side a straight start counts as none, m; ours
     side_tolerance: float = bounded(0.005, ge=0.0)
     # configurations per knot interval the press check reads, count; ours
     press_substeps: int = bounded(4, ge=1)
-    # search before the phi stages ("none", or "sampling": see sampling.py), choice; ours
-    search: Literal["none", "sampling"] = "none"
-    # rounds of the sampling search (cross-entropy refits), count; ours
-    search_rounds: int = bounded(3, ge=1)
-    # paths drawn per round of the sampling search, count; ours
-    search_samples: int = bounded(8, ge=1)
-    # best fraction of a round's scored paths the next round's Gaussian is fitted to, unitless; ours
-    search_elite: float = bounded(0.25, gt=0.0, le=1.0)
-    # half-range of the search's sideways move of the tool frame (W's y), m; ours
-    search_lateral: float = bounded(0.03, ge=0.0)
-    # half-range of the search's vertical move of the tool frame (W's z), m; ours
-    search_height: float = bounded(0.02, ge=0.0)
-    # half-range of the search's turn of the tool frame about W's z, rad; ours
-    search_yaw: float = bounded(0.15, ge=0.0)
-    # half-range of the search's change of the gripper's opening, m; ours
-    search_opening: float = bounded(0.02, ge=0.0, le=0.09)
-    # seed of the sampling search's draws, integer; ours
-    search_seed: int = bounded(0, ge=0)
-    # knots before the start path's first arm-box contact where search offsets begin, count; ours
-    search_lead_knots: int = bounded(3, ge=0)
-    # the search scores every sample in one phi per member built once for the search, flag; ours
-    search_shared_phi: bool = True
-    # extra prune margin of that shared phi, for the samples' own sweeps, m; ours
-    search_prune_margin: float = bounded(0.08, ge=0.0)
-    # times the search rebuilds its phis to free frozen boxes its samples reach, count; ours
-    search_rebuilds: int = bounded(2, ge=0)
     # iLQR iterations of the Sec. V-B post-processing, count; ours
     post_iterations: int = bounded(40, ge=0)
     # largest arm-point travel between swept-cost samples (0: fixed counts alone), m; ours
@@ -332,14 +303,6 @@ class EnsembleConfig:
     friction: float = bounded(0.2, ge=0.0, lt=1.0)
     # member 1 pairs friction as Bullet does (world.friction_as_bullet), flag; ours
     bullet_friction_member: bool = True
-    # the score over members ("mean", "mean_std": mean + weight std, "cvar"), choice; ours
-    risk: Literal["mean", "mean_std", "cvar"] = "mean"
-    # lambda of the "mean_std" score, unitless; ours
-    risk_weight: float = bounded(1.0, ge=0.0)
-    # worst fraction of the members the "cvar" score averages, unitless; ours
-    cvar_fraction: float = bounded(0.5, gt=0.0, le=1.0)
-    # the judge in phi's kinematic failure: "jam", "press" (box top at rest) or either; ours
-    kinematic_reading: Literal["jam", "press", "jam_or_press"] = "jam"
     # knots the judge in phi holds the arm after Delta before reading the boxes, count; ours
     judge_hold_knots: int = bounded(5, ge=0)
 

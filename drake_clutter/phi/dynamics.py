@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import hashlib
 import pickle
+from collections import deque
 from dataclasses import dataclass, fields, replace
 from functools import cached_property
 
@@ -154,6 +155,18 @@ def point_contact_geometry(config: DynamicsConfig) -> PointContactBoxes | None:
                                  board_depth=config.edge_board_depth)
     return PointContactBoxes(config.corner_sphere_radius,
                              box_shape=config.contact_model == "point")
+
+
+def reach(seeds: set, links: dict) -> set:
+    """The nodes reached from ``seeds`` through ``links`` ({node: its neighbours}, symmetric),
+    the seeds included: the boxes a push reaches through boxes that touch."""
+    reached, queue = set(seeds), deque(seeds)
+    while queue:
+        for other in links.get(queue.popleft(), ()):
+            if other not in reached:
+                reached.add(other)
+                queue.append(other)
+    return reached
 
 
 def cap_box_speeds(values: np.ndarray, box_v: np.ndarray, config: DynamicsConfig) -> np.ndarray:

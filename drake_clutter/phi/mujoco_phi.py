@@ -36,7 +36,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from drake_clutter.phi.dynamics import ARM_NODE, PhiBase, PhiSpec, cap_box_speeds
+from drake_clutter.phi.dynamics import ARM_NODE, PhiBase, PhiSpec, cap_box_speeds, reach
 from drake_clutter.phi.jam import ACTOR, MIN_FORCE, Contact, approach_speeds
 from drake_clutter.phi.mujoco_model import (
     ModelBox,
@@ -130,13 +130,7 @@ def _pushed_boxes(pairs: np.ndarray) -> set[int]:
         if a != b:
             links.setdefault(a, set()).add(b)
             links.setdefault(b, set()).add(a)
-    queue = list(reached)
-    while queue:
-        for other in links.get(queue.pop(), ()):
-            if other not in reached:
-                reached.add(other)
-                queue.append(other)
-    return reached
+    return reach(reached, links)
 
 
 def commanded_point_velocity(model, data, v_commanded: np.ndarray):

@@ -19,13 +19,12 @@ and the boxes' Box shapes, all in W.
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
 from drake_clutter.common.config import DynamicsConfig, WorldConfig
-from drake_clutter.phi.dynamics import PhiSpec, initial_state, make_spec
+from drake_clutter.phi.dynamics import PhiSpec, initial_state, make_spec, reach
 from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.state import box_state_to_pose, scene_box_states
 from drake_clutter.scene.scenes import Scene
@@ -90,7 +89,7 @@ def prune(scene: Scene, arm_path: np.ndarray, box_states: dict[str, np.ndarray] 
                 near_arm.add(b if a == "arm" else a)
     near_arm.discard("arm")
     neighbours = _box_neighbours(world, context, owner, config.prune_contact_range)
-    kept = _closure(near_arm, neighbours)
+    kept = reach(near_arm, neighbours)
     order = [b.name for b in scene.boxes]
     return PruneReport(tuple(n for n in order if n in kept),
                        tuple(n for n in order if n in near_arm), len(order))
@@ -126,16 +125,6 @@ def _box_neighbours(world, context, owner, distance: float) -> dict[str, set[str
             neighbours.setdefault(a, set()).add(b)
             neighbours.setdefault(b, set()).add(a)
     return neighbours
-
-
-def _closure(seeds: set[str], neighbours: dict[str, set[str]]) -> set[str]:
-    kept, queue = set(seeds), deque(seeds)
-    while queue:
-        for other in neighbours.get(queue.popleft(), ()):
-            if other not in kept:
-                kept.add(other)
-                queue.append(other)
-    return kept
 
 
 def make_pruned_spec(scene: Scene, arm_path: np.ndarray,

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pydrake.autodiffutils import AutoDiffXd, ExtractGradient, ExtractValue
-from pydrake.math import BsplineBasis, KnotVectorType, RigidTransform
+from pydrake.math import RigidTransform
 from pydrake.multibody.inverse_kinematics import OrientationConstraint, PositionConstraint
 from pydrake.solvers import IpoptSolver, MathematicalProgram, SnoptSolver, SolverOptions
 
@@ -54,7 +54,7 @@ from drake_clutter.planners.clearance import (
 from drake_clutter.planners.clearance import smooth_penetration as smooth_penetration  # re-exported
 from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene
-from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
+from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory, spline_basis
 from drake_clutter.worlds.drake_world import World
 
 # ----------------------------------------------------------------------------- optimisation
@@ -77,15 +77,6 @@ def interpolate(q_start: np.ndarray, q_end: np.ndarray, num_knots: int) -> np.nd
     s = np.linspace(0.0, 1.0, num_knots)[:, None]
     return (1.0 - s) * q_start + s * q_end
 
-
-def spline_basis(num_knots: int, num_points: int, order: int) -> np.ndarray:
-    """(num_knots, num_points) values of a clamped uniform B-spline basis of ``order`` at
-    ``num_knots`` evenly spaced parameters: knot values = basis @ control points. The first
-    and last rows pick the first and last control points."""
-    basis = BsplineBasis(order, num_points, KnotVectorType.kClampedUniform, 0.0, 1.0)
-    s = np.linspace(0.0, 1.0, num_knots)
-    return np.array([[basis.EvaluateBasisFunctionI(i, x) for i in range(num_points)]
-                     for x in s])
 
 
 class PathMap:

@@ -15,6 +15,10 @@ from __future__ import annotations
 from drake_clutter.common.config import BaselineConfig
 from drake_clutter.trajectory import Candidate
 
+# details["chosen"] of a push candidate whose search's pick reads no grasp in phi: the
+# baseline's own path is returned instead (``push_search.fallback``)
+FALLBACK = "baseline"
+
 
 def selection_score(planner: str, details: dict, baseline: BaselineConfig | None = None
                     ) -> float | None:
@@ -60,7 +64,7 @@ def _push_score(details: dict) -> float | None:
     returned as the fallback (P(success) 0 and the worst grade in phi)."""
     if details.get("clear"):
         return -1.0
-    if details.get("chosen") == "baseline":  # the fallback: nothing read a grasp in phi
+    if details.get("chosen") == FALLBACK:  # nothing read a grasp in phi
         return 0.04
     search = details.get("search") or {}
     verdict = (search.get("verdicts") or {}).get(details.get("chosen"))

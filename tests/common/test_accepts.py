@@ -164,8 +164,6 @@ def test_a_yaml_file_names_itself_and_the_field(tmp_path):
 def test_the_robot_s_limits_match_the_configuration_s_bounds():
     """The configuration cannot import the robot package; its copies of the robot's facts are
     checked here."""
-    fields = {f.name: f for f in dataclasses.fields(Config().physics)}
-    assert field_bounds(fields["search_opening"]).le == pr2.GRIPPER_MAX_OPENING
     world = {f.name: f for f in dataclasses.fields(Config().world)}
     assert field_bounds(world["park_gripper_opening"]).le == pr2.GRIPPER_MAX_OPENING
     hints = typing.get_type_hints(type(Config().physics))

@@ -30,7 +30,7 @@ from drake_clutter.planners.selection import selected_index
 from drake_clutter.robot.pr2 import velocity_limits
 from drake_clutter.scene.generators import generate_scene
 from drake_clutter.scene.scenes import BoxObject, load_shipped_scene, shipped_scene_names
-from drake_clutter.trajectory import TRAJECTORY_JOINTS, load_plan
+from drake_clutter.trajectory import TRAJECTORY_JOINTS, load_plan, spline_basis
 from drake_clutter.worlds.drake_world import build_planning_world
 
 REPO = Path(__file__).resolve().parents[2]
@@ -251,7 +251,7 @@ def test_path_cost_gradient_matches_finite_differences(bookshelf, world, clearan
 
 
 def test_spline_basis_reproduces_straight_lines():
-    basis = bl.spline_basis(30, 10, 4)
+    basis = spline_basis(30, 10, 4)
     np.testing.assert_allclose(basis.sum(axis=1), 1.0)
     assert basis[0, 0] == 1.0 and basis[-1, -1] == 1.0
     line = bl.interpolate(np.zeros(7), np.arange(7.0), 30)

@@ -8,7 +8,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from drake_clutter.planners.baseline import spline_basis
 from drake_clutter.solvers.ilqr import ILQRSettings, rollout
 from drake_clutter.solvers.spline import (
     SplineControls,
@@ -24,6 +23,7 @@ from drake_clutter.testing.control_problems import (
     lqr_problem,
     stacked_lqr,
 )
+from drake_clutter.trajectory import spline_basis
 
 
 def _batch_spline_lqr(A, B, Q, R, Qf, x0, T, basis, q0):

@@ -56,9 +56,9 @@ from pydrake.math import RigidTransform
 
 from drake_clutter.common.config import PhysicsConfig
 from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, StateLayout, box_state_to_pose
+from drake_clutter.planners.geometry import SHELF, ArmGeometry, Contact
 from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.costs import Term
-from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry, Contact
 from drake_clutter.planners.physics.penetration import (
     deep_penetration_term,
     distance_row,
@@ -275,7 +275,7 @@ class PhysicsObjective:
     def settled_terms(self, z: np.ndarray) -> dict[str, Term]:
         """Weighted box-fate terms over dz on a settled state z (the hold tail's last knot),
         priced as the judge grades it (Sec. III; weights in judge-equivalents, see
-        docs/decisions.md): c_settled_fall, each kept box's `costs.off_board` share F, and
+        docs/log/decisions.md): c_settled_fall, each kept box's `costs.off_board` share F, and
         c_settled_upright, each box's tilt theta (rad, as c_upright) times (1 - F): a box that
         fell is priced as fallen, not by how it tumbled. Gauss-Newton: the product's cross
         curvature is left out. Empty when both weights are 0."""

@@ -20,8 +20,8 @@ import numpy as np
 
 from drake_clutter.phi.state import ARM_DIM
 from drake_clutter.planners.clearance import smooth_penetration
+from drake_clutter.planners.geometry import SHELF, ArmGeometry, Contact, pressing
 from drake_clutter.planners.physics.costs import Term
-from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry, Contact
 
 
 def penetration_term(contacts: list[Contact], d_safe: float, columns: int,
@@ -106,41 +106,7 @@ def segment_penetration(geometry: ArmGeometry, q_a, q_b, substeps: int, d_safe: 
     return out
 
 
-def pressing(contacts: list[Contact], normal_z: float) -> list[Contact]:
-    """The arm-box pairs of ``contacts`` whose normal from the box to the arm (W) has an up
-    component above ``normal_z``: the arm above a box's top."""
-    return [c for c in contacts if c.obstacle != SHELF and c.normal[2] > normal_z]
-
-
 def press_term(contacts: list[Contact], d_safe: float, columns: int, normal_z: float) -> Term:
     """c_press: `penetration_term` of the arm-box pairs of ``contacts`` that press down
     (`pressing`), over ``columns`` numbers (the arm's 8 first; the boxes' columns get none)."""
     return penetration_term(pressing(contacts, normal_z), d_safe, columns)
-
-
-def path_press(geometry: ArmGeometry, q: np.ndarray, substeps: int, normal_z: float) -> float:
-    """The deepest press over a path (m, 0 where none): the largest penetration of an
-    arm-box pair that presses down (`pressing`) over ``substeps`` configurations per knot
-    interval of ``q`` (knots, 8 each), the boxes where ``geometry`` last put them (at first
-    their resting poses). The judge's usual kinematic failure as a geometric check."""
-    return path_depths(geometry, q, substeps, normal_z)[0]
-
-
-def path_depths(geometry: ArmGeometry, q: np.ndarray, substeps: int, normal_z: float,
-                side_exclude: tuple[str, ...] = ()) -> tuple[float, float]:
-    """(press, side) over a path (m, 0 where none): the deepest penetration of an arm-box pair
-    that presses down (`pressing`, every box) and of one that does not (the arm against a
-    box's side; boxes in ``side_exclude`` skipped), over ``substeps`` configurations per knot
-    interval of ``q`` (knots, 8 each), the boxes where ``geometry`` last put them."""
-    q = np.asarray(q, dtype=float)
-    press = side = 0.0
-    for q_a, q_b in zip(q[:-1], q[1:], strict=True):
-        for lam in np.arange(1, substeps + 1) / substeps:
-            found = geometry.contacts((1 - lam) * q_a + lam * q_b, None, 0.0, "boxes")
-            down = {id(c) for c in pressing(found, normal_z)}
-            for c in found:
-                if id(c) in down:
-                    press = max(press, -c.distance)
-                elif c.obstacle not in side_exclude:
-                    side = max(side, -c.distance)
-    return press, side

@@ -1,77 +1,35 @@
-"""The physics-based planner of Sec. V: per baseline candidate, pre-processing, iLQR through phi,
-post-processing.
+"""The physics-based planner of Sec. V on each baseline candidate (`optimise_candidate`):
 
-Stages of `optimise_candidate` (each an `ilqr.solve`; the objectives are `objective`):
+0. ``height`` (ours): the start is the first of the baseline's straight paths at the heights and
+   yaws of ``physics.grasp_heights`` / ``approach_offsets`` clear of the boxes
+   (`grasp_height.choose_height`); it is the "baseline" path of every stage below.
+1. ``pre`` (Sec. V-A): kinematic iLQR (state q^t, control q^(t+1)), the boxes fixed at rest:
+   c_static_hull + c_dynamic + c_vel, c_grasp and c_grp_horiz at the end; the baseline's last
+   knot and gripper openings kept as bounds (``pre_keep_pregrasp``).
+2. ``sphere`` (Sec. V): ``sphere_iterations`` iLQR iterations through phi with the sphere gripper;
+   the target is parked out of phi (``sphere_target``), c_static keeps the capsule gripper.
+3. ``full`` (Sec. V): the remaining ``iterations - sphere_iterations`` with the capsule arm,
+   started from the best in its phi of the sphere stage's, the pre-processed and the start path.
+4. ``post`` (Sec. V-B): kinematic iLQR, c_static in the ``post_variant`` geometry + c_match +
+   c_match_vel to the physics path, its last knot and openings kept (``post_keep_end``).
+5. ``select`` (ours, ``select_in_phi``): the lowest objective of the full stage (hold tail
+   included) in one phi pruned for the post-processed, pre-processed and start paths.
 
-0. ``height`` (ours, ``physics.grasp_heights``; off when empty): the baseline is planned at
-   the same angle at each listed grasp height too, and the path chosen by
-   ``physics.height_choice`` (the geometric checks, or the best class in phi's ensemble) becomes
-   the start of every stage below and the "baseline" path of ``select``
-   (`grasp_height.choose_height`).
-1. ``pre`` (Sec. V-A): the kinematic arm alone, boxes held fixed where the scene puts them:
-   c_static_hull + c_dynamic + c_vel, with c_grasp to the candidate's pre-grasp point and
-   c_grp_horiz at the end instead of the baseline's terminal pose constraint. A kinematic iLQR
-   (state q^t, control q^(t+1), A = 0, B = I) is far cheaper than a SNOPT program here and
-   reuses the same cost code.
-   ``search`` (ours, ``physics.search: sampling``; off by default): a cross-entropy search
-   over a four-number family of paths around the better of the pre-processed and the
-   baseline paths, scored by phi's ensemble (`sampling`); its best path (never worse than
-   either in that score) starts the sphere stage, and it is one more candidate of ``select``.
-2. ``sphere`` (Sec. V): ``sphere_iterations`` iLQR iterations through phi with the gripper as
-   one sphere (the ``sphere_gripper`` arm in phi and in the cost geometry). The sphere encloses
-   the open gripper, so at the pre-grasp it engulfs the target: in this stage the target is
-   taken out of phi (welded 10 m below the floor) and has no c_force; c_grasp aims at its
-   resting pose (ours: with the target in phi the sphere shoves it away and c_force, 5e8 on
-   fig5, drove the arm 40 cm off the target; welded in place, SAP failed on the first rollout).
-   c_static keeps the capsule gripper: the sphere (radius 0.118 m) cannot reach the pre-grasp
-   without sinking into the board (c_static ~1e3 on fig5, measured);
-3. ``full``: the remaining ``iterations - sphere_iterations`` with the capsule arm;
-4. ``post`` (Sec. V-B): the kinematic arm again, c_static in the evaluation geometry (at
-   ``post_substeps`` configurations per knot interval) + c_match + c_match_vel to the physics
-   plan;
-5. ``select`` (ours, ``select_in_phi``): the post-processed, the pre-processed and the
-   baseline's paths rolled out in one phi pruned for all three, with the full stage's
-   objective (hold tail included); the lowest is the plan (ties go to the earlier in that
-   order), so the physics plan is never worse than its baseline in phi's own objective. With
-   ``ensemble.members`` > 1 the paths are ranked by their ensemble score instead
-   (`ensemble.ensemble_scores`). With ``select_press`` a path that presses on a box's top
-   (`penetration.path_press` deeper than ``press_tolerance``, the boxes at rest) ranks after
-   every path that does not, whatever its objective: phi's compliant boxes make way where the
-   judge's cannot. ``details["select"]`` lists the objectives, the presses and the choice.
+Each phi stage (`stage.stage_problem`) prunes the boxes to the path, settles them under the arm,
+adds the held knots after Delta and runs iLQR on z = [x, q^(t-1)] in tangent coordinates
+(`ilqr.solve`, or the B-spline controls of `spline.solve_spline` with ``controls`` "spline");
+controls are bounded by the PR2's joint limits and the gripper's [0, 0.09] m. With the default
+``iterations`` 0 no phi stage runs.
 
-What the stages keep (bounds, not costs; ours): the pre-processing keeps the baseline's last
-knot and gripper openings (``pre_keep_pregrasp``: Sec. IV's pre-grasp pose is a constraint
-there, and c_dynamic on the target's neighbours pulled the soft terminal cost off it), the
-post-processing its reference's (``post_keep_end``), and the phi stages open the gripper at
-the last knot at least as wide as the baseline did (``keep_open``).
+Failure modes: a phi stage whose start phi cannot simulate restarts from the start path
+(``started_from``); any other failure is a candidate with status ``optimisation_failed`` and a
+reason, never an exception. ``physics.time_budget`` (s) cuts solvers at the deadline and leaves
+out the phi stages and ``select`` once it has passed (``details["time_budget"]``).
 
-Each phi stage prunes the boxes against its initial path (`pruning.make_pruned_spec`), settles
-the kept boxes in phi under the arm at the start configuration (``dynamics.settle_time``),
-adds the held knots after Delta to its objective (`stage.HoldTail`, Table II's "all" times) and
-runs iLQR in the tangent space of the augmented state z = [x, q^(t-1)] (`stage.AugmentedPhi`;
-rotations as rotation vectors, `ilqr.solve`'s ``difference``). The start q^0 is fixed; the
-controls q^1..q^Delta are box-bounded by the PR2's joint limits and the gripper's [0, 0.09] m
-(clamped in the forward pass, the feedback of bound controls dropped: see `ilqr`).
-
-The time budget (ours, ``physics.time_budget``, s per candidate): every solver stops at its
-deadline with its best path so far (an iLQR step is taken only when it lowers the stage's
-objective, and a phi stage starts from the lowest of its starts); once it has passed, the
-phi stages, the search and ``select`` are left out and the post-processing takes no step, so
-the plan is the last phi stage's path (the pre-processed one if no phi stage ran). A solver
-starts no iteration that its last one's duration says would end past the deadline, and no
-stage that builds a phi starts when the last phi stage's set-up and first iteration would.
-``details["time_budget"]`` records the stages cut short (``stopped``) or left out
-(``skipped``) and the path returned. What cannot be cut: one linearization or one batch of
-forward passes, a phi stage's pruning and settling, the height choice.
-
-A phi stage whose initial path phi cannot simulate starts again from the baseline's path (its
-record's ``started_from`` says so). A failure (phi diverging on that too, a solver error) is a
-candidate with status ``optimisation_failed`` and a reason, never an exception.
-
-The result is a `trajectory.Candidate` (planner "physics") whose ``details`` carry, per stage,
-the cost history per term, iterations and stop reason; ``timings`` the seconds per stage; and
-``details["feedback"]`` the last phi stage's gains K_t (8 x nz, tangent coordinates of z) and
-k_t with the kept boxes' names (the state layout they refer to).
+Returns a `trajectory.Candidate` (planner "physics"): ``details`` per stage (cost and term
+history, iterations, stop reason), ``timings`` (s per stage) and ``details["feedback"]`` (the
+last phi stage's gains K_t, k_t and the kept boxes they refer to). How the stages came to be:
+docs/physics_planner.md and docs/log/physics_planner.md.
 """
 
 from __future__ import annotations
@@ -85,23 +43,21 @@ from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.state import ARM_DIM
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import grasp_offset
-from drake_clutter.planners.baseline import plan_baseline, spline_basis
-from drake_clutter.planners.physics.ensemble import ensemble_scores
-from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.grasp_height import box_depths, choose_height
+from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.physics.grasp_height import choose_height
 from drake_clutter.planners.physics.objective import (
     KinematicObjective,
     PhysicsObjective,
     max_steps,
     pregrasp_aim,
 )
-from drake_clutter.planners.physics.sampling import sampling_search
 from drake_clutter.planners.physics.stage import AugmentedPhi, stage_problem
 from drake_clutter.planners.selection import selection_score
 from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.solvers import ilqr, spline
-from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
+from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory, spline_basis
 
 ROLL_BOUND = 4 * np.pi  # rad, bound of the continuous rolls' controls; ours: two turns either
 # way is more than any reach needs, and a bound keeps a bad feedback gain from sending phi a
@@ -204,12 +160,12 @@ def _json_log(log: list[dict]) -> list[dict]:
     return [{k: (v if isinstance(v, bool) else float(v)) for k, v in e.items()} for e in log]
 
 
-def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
-               geometry: ArmGeometry | None = None, deadline: float | None = None
+def preprocess(context: PlanningContext, q_init: np.ndarray, deadline: float | None = None
                ) -> tuple[np.ndarray, ilqr.ILQRResult]:
-    """Sec. V-A on a knot path (T + 1, 8): the path with less box contact, and the solver's
-    result (stopped at ``deadline``, see `solver_settings`)."""
-    geometry = geometry or ArmGeometry(scene, "capsules")
+    """Sec. V-A on a knot path (T + 1, 8): the path with less box contact (the capsule arm,
+    the boxes at rest), and the solver's result (stopped at ``deadline``, see
+    `solver_settings`)."""
+    scene, config, geometry = context.scene, context.config, context.arm()
     objective = KinematicObjective(
         geometry, config.physics, "pre", config.baseline.d_safe, scene.target,
         p_pregrasp=geometry.tool(q_init[-1])[0], w_static_hull=config.baseline.w_static_hull,
@@ -223,12 +179,12 @@ def preprocess(scene: Scene, q_init: np.ndarray, config: Config,
     return result.xs, result
 
 
-def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
-                geometry: ArmGeometry | None = None, deadline: float | None = None
+def postprocess(context: PlanningContext, q_ref: np.ndarray, deadline: float | None = None
                 ) -> tuple[np.ndarray, ilqr.ILQRResult]:
-    """Sec. V-B on a knot path (T + 1, 8): c_static in the evaluation geometry, c_match and
-    c_match_vel to ``q_ref`` (stopped at ``deadline``, see `solver_settings`)."""
-    geometry = geometry or ArmGeometry(scene, config.physics.post_variant)
+    """Sec. V-B on a knot path (T + 1, 8): c_static in the ``physics.post_variant`` geometry,
+    c_match and c_match_vel to ``q_ref`` (stopped at ``deadline``, see `solver_settings`)."""
+    scene, config = context.scene, context.config
+    geometry = context.arm(config.physics.post_variant)
     objective = KinematicObjective(geometry, config.physics, "post", config.baseline.d_safe,
                                    scene.target, q_ref=q_ref,
                                    knot_time=config.baseline.knot_time)
@@ -240,7 +196,7 @@ def postprocess(scene: Scene, q_ref: np.ndarray, config: Config,
     return result.xs, result
 
 
-def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, iterations: int,
+def physics_stage(context: PlanningContext, q: np.ndarray, variant: str, iterations: int,
                   pool: WorkerPool | None = None, times: np.ndarray | None = None,
                   alternatives: tuple[np.ndarray, ...] = (),
                   approach: np.ndarray | None = None, min_opening: float | None = None,
@@ -255,8 +211,9 @@ def physics_stage(scene: Scene, q: np.ndarray, config: Config, variant: str, ite
     (`PhysicsConfig.approach_knots`); ``min_opening``: the last knot's least gripper opening
     (m, `knot_bounds`); ``deadline``: see `solver_settings`; ``aim_T``: c_grasp's point in
     the target's frame (`objective.pregrasp_aim`; default: ``q``'s last knot's)."""
+    config = context.config
     knot_time = _knot_time(times, config)
-    with stage_problem(scene, q, config, variant, pool, knot_time, approach,
+    with stage_problem(context, q, variant, pool, knot_time, approach,
                        also=tuple(alternatives), aim_T=aim_T) as problem:
         augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
         starts = [q, *alternatives]
@@ -316,54 +273,28 @@ def _knot_time(times: np.ndarray | None, config: Config) -> float:
     return float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
 
 
-def select_path(scene: Scene, paths: dict[str, np.ndarray], config: Config, pool=None,
+def select_path(context: PlanningContext, paths: dict[str, np.ndarray], pool=None,
                 times: np.ndarray | None = None, approach: np.ndarray | None = None,
-                geometry: ArmGeometry | None = None, aim_T: np.ndarray | None = None
-                ) -> tuple[str, dict]:
+                aim_T: np.ndarray | None = None) -> tuple[str, dict]:
     """The name of the knot path (each (T + 1, 8), one start) with the lowest objective of the
-    full stage (capsule arm, hold tail) in one phi pruned for all ``paths`` - with
-    ``ensemble.members`` > 1 the lowest ensemble score (`ensemble.ensemble_scores`) - and
-    what was measured: each path's objective or score (None where phi fails) and the
-    pruning. Ties go to the earlier name; when phi fails on every path, the first.
-    ``geometry``: the capsule arm with the boxes at rest, for the press check; ``aim_T``:
-    c_grasp's point in the target's frame (default: the first path's last knot's)."""
-    knot_time = _knot_time(times, config)
+    full stage (capsule arm, hold tail) in one phi pruned for all ``paths``, and what was
+    measured: each path's objective (None where phi fails) and the pruning. Ties go to the
+    earlier name; when phi fails on every path, the first. ``aim_T``: c_grasp's point in the
+    target's frame (default: the first path's last knot's)."""
+    knot_time = _knot_time(times, context.config)
     names = list(paths)
-    extra = {}
-    if config.ensemble.members > 1:
-        values, members = ensemble_scores(scene, paths, config, pool, knot_time, approach,
-                                          aim_T)
-        extra = {"members": members, "risk": config.ensemble.risk}
-        pruning = None
-    else:
-        first, *others = (paths[n] for n in names)
-        with stage_problem(scene, first, config, "capsules", pool, knot_time, approach,
-                           also=tuple(others), aim_T=aim_T) as problem:
-            values = {n: _path_objective(problem.augmented, problem.objective, problem.z0,
-                                         paths[n]) for n in names}
-            pruning = problem.report.summary()
-    presses = (_presses(scene, paths, config, geometry) if config.physics.select_press
-               else {})
-    tolerance = config.physics.press_tolerance
-    chosen = min(names, key=lambda n: (presses.get(n, 0.0) > tolerance, values[n],
-                                       names.index(n)))
+    first, *others = (paths[n] for n in names)
+    with stage_problem(context, first, "capsules", pool, knot_time, approach,
+                       also=tuple(others), aim_T=aim_T) as problem:
+        values = {n: _path_objective(problem.augmented, problem.objective, problem.z0,
+                                     paths[n]) for n in names}
+        pruning = problem.report.summary()
+    chosen = min(names, key=lambda n: (values[n], names.index(n)))
     finite = {n: (v if np.isfinite(v) else None) for n, v in values.items()}
-    if presses:
-        extra["presses"] = presses
-    return chosen, {"objectives": finite, "chosen": chosen, "pruning": pruning, **extra}
+    return chosen, {"objectives": finite, "chosen": chosen, "pruning": pruning}
 
 
-def _presses(scene: Scene, paths: dict[str, np.ndarray], config: Config,
-             geometry: ArmGeometry | None = None) -> dict[str, float]:
-    """Each path's deepest press on a box's top (m; `penetration.path_press`, the boxes at
-    rest, the capsule arm ``geometry``): the judge's usual kinematic failure as a geometric
-    check."""
-    depths = box_depths(geometry or ArmGeometry(scene, "capsules"), paths, config,
-                        scene.target)
-    return {name: press for name, (press, _) in depths.items()}
-
-
-def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], config: Config,
+def _phi_stage_or_restart(context: PlanningContext, paths: tuple[np.ndarray, np.ndarray],
                           variant: str, iterations: int, pool, times,
                           alternatives: tuple[np.ndarray, ...] = (), approach=None,
                           deadline: float | None = None, aim_T: np.ndarray | None = None):
@@ -371,9 +302,9 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
     cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
     the pre-processing or sphere stage produced with the hydroelastic phi, measured on
     fig7); its info says which."""
-    opening = (float(paths[1][-1, GRIPPER]) if config.physics.keep_open else None)
+    opening = (float(paths[1][-1, GRIPPER]) if context.config.physics.keep_open else None)
     try:
-        q, result, info = physics_stage(scene, paths[0], config, variant, iterations, pool,
+        q, result, info = physics_stage(context, paths[0], variant, iterations, pool,
                                         times, alternatives, approach, opening, deadline,
                                         aim_T=aim_T)
         best = int(np.argmin(info["start_objectives"]))
@@ -382,24 +313,10 @@ def _phi_stage_or_restart(scene: Scene, paths: tuple[np.ndarray, np.ndarray], co
     except PhiFailure as exc:
         if np.array_equal(paths[0], paths[1]):
             raise
-        q, result, info = physics_stage(scene, paths[1], config, variant, iterations, pool,
+        q, result, info = physics_stage(context, paths[1], variant, iterations, pool,
                                         times, approach=approach, min_opening=opening,
                                         deadline=deadline, aim_T=aim_T)
         return q, result, {**info, "started_from": f"baseline ({exc})"}
-
-
-def _search(scene: Scene, q: np.ndarray, baseline_q: np.ndarray, config: Config, pool,
-            times) -> tuple[np.ndarray, dict]:
-    """`sampling.sampling_search` around the better of ``q`` and ``baseline_q`` in ensemble
-    score, within the joint limits and the phi stages' per-knot speed limit: its path and
-    what it measured."""
-    knot_time = _knot_time(times, config)
-    lo, hi = (np.array(b) for b in control_bounds())
-    steps = max_steps(config.physics, knot_time)
-    found = sampling_search(scene, q, config, lo, hi, steps, pool, knot_time, (baseline_q,))
-    info = {"score": found.score, "start_score": found.start_score, "rounds": found.rounds,
-            "offset": found.best.vector().tolist(), "begin": found.begin}
-    return found.q, info
 
 
 @dataclass
@@ -454,24 +371,22 @@ def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> 
                      candidate.trajectory, planner="physics", timings=timings, details=details)
 
 
-def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
+def optimise_candidate(context: PlanningContext, candidate: Candidate,
                        pool: WorkerPool | None = None) -> Candidate:
-    """Sec. V on one baseline candidate (module docstring); a non-"ok" candidate comes back
-    as it is, relabelled planner "physics"."""
+    """Sec. V on one baseline candidate (module docstring) in the scene's planning
+    ``context``; a non-"ok" candidate comes back as it is, relabelled planner "physics"."""
     if not candidate.ok:
         return replace(candidate, planner="physics",
                        reason=f"no initialization: {candidate.reason or candidate.status}")
+    scene, config = context.scene, context.config
     cfg = config.physics
     budget = Budget(cfg.time_budget)
-    # One capsule arm with the boxes at rest for every geometric check of the candidate (the
-    # phi stages' objectives own theirs: they move its boxes to phi's poses).
-    at_rest = ArmGeometry(scene, "capsules")
+    at_rest = context.arm()
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
     if cfg.grasp_heights or cfg.approach_offsets:
         tic = time.perf_counter()
         try:
-            candidate, details["grasp_height"] = choose_height(scene, candidate, config, pool,
-                                                               at_rest)
+            candidate, details["grasp_height"] = choose_height(context, candidate)
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep the start
             details["grasp_height"] = {"error": str(exc)}
         timings["height"] = time.perf_counter() - tic
@@ -484,7 +399,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     aim_T = pregrasp_aim(at_rest, baseline_q[-1], scene.target, grasp_offset(config.baseline))
     tic = time.perf_counter()
     try:
-        q, result = preprocess(scene, q, config, at_rest, budget.deadline)
+        q, result = preprocess(context, q, budget.deadline)
     except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
         timings["pre"] = time.perf_counter() - tic
         return _failed(candidate, f"pre stage: {exc}", timings, details)
@@ -492,16 +407,6 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     budget.note("pre", result)
     details["stages"]["pre"] = _stage_record(result, timings["pre"])
     q_pre = q
-    q_search = None
-    if cfg.search == "sampling" and not budget.skip("search", phi=True):
-        tic = time.perf_counter()
-        try:
-            q_search, details["search"] = _search(scene, q_pre, baseline_q, config, pool,
-                                                  candidate.trajectory.times)
-            q = q_search
-        except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep pre
-            details["search"] = {"error": str(exc)}
-        timings["search"] = time.perf_counter() - tic
     stages = (("sphere", "sphere_gripper", min(cfg.sphere_iterations, cfg.iterations)),
               ("full", "capsules", cfg.iterations - min(cfg.sphere_iterations, cfg.iterations)))
     last = None
@@ -517,7 +422,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
             if name == "full":
                 others = tuple(p for p in (q_pre, baseline_q)
                                if p is not q and not np.array_equal(p, q))
-            q, result, info = _phi_stage_or_restart(scene, (q, baseline_q), config, variant,
+            q, result, info = _phi_stage_or_restart(context, (q, baseline_q), variant,
                                                     iterations, pool, candidate.trajectory.times,
                                                     others, approach, budget.deadline, aim_T)
         except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
@@ -530,7 +435,7 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
         last = (result, info)
     tic = time.perf_counter()
     try:
-        q, result = postprocess(scene, q, config, deadline=budget.deadline)
+        q, result = postprocess(context, q, budget.deadline)
     except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
         timings["post"] = time.perf_counter() - tic
         return _failed(candidate, f"post stage: {exc}", timings, details)
@@ -541,12 +446,10 @@ def optimise_candidate(scene: Scene, candidate: Candidate, config: Config,
     if cfg.select_in_phi and not budget.skip("select", phi=True):
         tic = time.perf_counter()
         paths = {"post": q, "pre": q_pre, "baseline": baseline_q}
-        if q_search is not None:
-            paths["search"] = q_search
         try:
-            chosen, details["select"] = select_path(scene, paths, config, pool,
+            chosen, details["select"] = select_path(context, paths, pool,
                                                     candidate.trajectory.times, approach,
-                                                    at_rest, aim_T)
+                                                    aim_T)
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep post
             chosen, details["select"] = "post", {"chosen": "post", "error": str(exc)}
         q = paths[chosen]
@@ -575,7 +478,8 @@ def plan_physics(scene: Scene, config: Config | None = None,
     own = pool is None and config.dynamics.workers > 0
     pool = WorkerPool(config.dynamics.workers) if own else pool
     try:
-        return [optimise_candidate(scene, c, config, pool) for c in candidates]
+        context = PlanningContext(scene, config)
+        return [optimise_candidate(context, c, pool) for c in candidates]
     finally:
         if own:
             pool.close()

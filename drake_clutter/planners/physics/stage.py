@@ -13,16 +13,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_clutter.common.config import Config
 from drake_clutter.phi.derivatives import PhiDynamics
 from drake_clutter.phi.dynamics import initial_state, make_spec
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, StateLayout, scene_box_states
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import grasp_offset
-from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.physics.objective import PhysicsObjective, pregrasp_aim
-from drake_clutter.scene.scenes import Scene
 from drake_clutter.solvers import ilqr
 
 PARKED_TARGET = (0.0, 0.0, -10.0)  # m, where the sphere stage welds the target in phi (away
@@ -266,7 +264,7 @@ class StageProblem:
 
 
 @contextmanager
-def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
+def stage_problem(context: PlanningContext, q: np.ndarray, variant: str,
                   pool: WorkerPool | None = None, knot_time: float | None = None,
                   approach: np.ndarray | None = None, also: tuple[np.ndarray, ...] = (),
                   aim_T: np.ndarray | None = None):
@@ -274,7 +272,9 @@ def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
     8; phi pruned to it and to the paths ``also``), ``knot_time`` s apart (default
     ``baseline.knot_time``); its phi is closed on leaving the ``with`` block. ``approach``: as
     in `physics_stage`. ``aim_T``: c_grasp's point in the target's frame (m, `pregrasp_aim`;
-    default: the gripper point at ``q``'s last knot, the target at rest)."""
+    default: the gripper point at ``q``'s last knot, the target at rest). The objective's arm
+    is the stage's own (`PlanningContext.fresh_arm`: it moves the boxes to phi's poses)."""
+    scene, config = context.scene, context.config
     knot_time = knot_time or config.baseline.knot_time
     spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
                                     variant, also)
@@ -293,9 +293,9 @@ def stage_problem(scene: Scene, q: np.ndarray, config: Config, variant: str,
     layout: StateLayout = spec.layout
     # The sphere reaches 3 cm below the board at the pre-grasp height: c_static keeps the
     # capsule gripper in that stage.
-    static = ArmGeometry(scene, "capsules") if variant == "sphere_gripper" else None
+    static = context.arm() if variant == "sphere_gripper" else None
     cfg = config.physics
-    geometry = ArmGeometry(scene, variant)
+    geometry = context.fresh_arm(variant)
     offset = grasp_offset(config.baseline)
     if aim_T is None:
         aim_T = pregrasp_aim(geometry, q[-1], scene.target, offset)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_clutter.common.config import PushConfig
-from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.push.family import PushPath, ViaPoint, draw_member
 
 UP = np.array([0.0, 0.0, 1.0])

@@ -35,7 +35,7 @@ import numpy as np
 
 from drake_clutter.common.config import Config, PushConfig
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
-from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
 ARM = 7  # arm joints; column 7 of a path is the gripper opening (m)

@@ -1,16 +1,16 @@
 """The push planner (beyond the paper): per approach angle, the baseline's straight path at
 each grasp height and yaw of ``physics.grasp_heights`` and ``physics.approach_offsets``
-(`grasp_height.height_candidates`); the first of them that keeps off the boxes
+(`starts.height_candidates`); the first of them that keeps off the boxes
 (`clear_starts`, with ``push_search.clear_first``), else the sampling search over the push
 family from them all, scored by the judge in phi (`search.run_search`).
 
-One capsule arm with the boxes at rest and one shelf-clearance world are built per scene and
-serve every angle. A candidate the baseline could not plan comes back as it is, relabelled
-"push"; a search that finds nothing better returns its best start, recorded as such. With
-``push_search.fallback``, a search whose pick reads neither success nor partial success in any
-member of phi returns the baseline's own path instead (``details["chosen"]`` "baseline", the
-search's pick kept in ``details["search"]["chosen"]``): among paths that all fail in phi, its
-reading of which failure is least bad is weakest on falls.
+The scene's planning worlds are built once (`context.PlanningContext`) and serve every angle. A
+candidate the baseline could not plan comes back as it is, relabelled "push"; a search that
+finds nothing better returns its best start, recorded as such. With ``push_search.fallback``, a
+search whose pick reads neither success nor partial success in any member of phi returns the
+baseline's own path instead (``details["chosen"]`` "baseline", the search's pick kept in
+``details["search"]["chosen"]``): among paths that all fail in phi, its reading of which failure
+is least bad is weakest on falls.
 """
 
 from __future__ import annotations
@@ -21,20 +21,14 @@ import numpy as np
 
 from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.workers import WorkerPool
-from drake_clutter.planners.approach import approach_angles, static_planning_world
-from drake_clutter.planners.clearance import ShelfClearance
-from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.grasp_height import (
-    box_depths,
-    height_candidates,
-    start_key,
-)
+from drake_clutter.planners.approach import approach_angles
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.geometry import ArmGeometry, box_depths
 from drake_clutter.planners.push.search import run_search
+from drake_clutter.planners.selection import FALLBACK
+from drake_clutter.planners.starts import height_candidates, start_key
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
-
-# details["chosen"] of a search whose pick reads no grasp in phi: the baseline's own path
-FALLBACK = "baseline"
 
 
 def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Candidate]:
@@ -42,8 +36,7 @@ def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Cand
     docstring); phi's members are rolled out in ``dynamics.workers`` worker processes (0: in
     this one)."""
     check_config(config)
-    geometry = ArmGeometry(scene, "capsules")
-    clearance = ShelfClearance(static_planning_world(scene))
+    context = PlanningContext(scene, config)
     alphas = approach_angles(config.baseline)
     pool = WorkerPool(config.dynamics.workers) if config.dynamics.workers > 0 else None
     out = []
@@ -55,20 +48,20 @@ def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Cand
                                      dict(candidate.details)))
                 continue
             index = int(np.argmin(np.abs(alphas - candidate.alpha)))
-            out.append(push_candidate(scene, candidate, config, geometry, clearance, index,
-                                      pool))
+            out.append(push_candidate(context, candidate, index, pool))
     finally:
         if pool is not None:
             pool.close()
     return out
 
 
-def push_candidate(scene: Scene, candidate: Candidate, config: Config, geometry: ArmGeometry,
-                   clearance: ShelfClearance, index: int, pool=None) -> Candidate:
-    """The push planner on one baseline candidate (angle ``index`` of the baseline's);
-    ``pool``: `run_search`'s."""
+def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
+                   pool=None) -> Candidate:
+    """The push planner on one baseline candidate (angle ``index`` of the baseline's) in the
+    scene's planning ``context``; ``pool``: `run_search`'s."""
+    scene, config, geometry = context.scene, context.config, context.arm()
     tic = time.perf_counter()
-    found = height_candidates(scene, candidate, config)
+    found = height_candidates(context, candidate)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
     timings = {"heights": time.perf_counter() - tic}
     clear = clear_starts(scene, starts, config, geometry) if (
@@ -79,8 +72,8 @@ def push_candidate(scene: Scene, candidate: Candidate, config: Config, geometry:
         return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
                          timings=timings, details=details)
     tic = time.perf_counter()
-    result = run_search(scene, starts, candidate.trajectory.times, config, geometry, clearance,
-                        index, pool)
+    result = run_search(scene, starts, candidate.trajectory.times, config, geometry,
+                        context.clearance, index, pool)
     timings["search"] = time.perf_counter() - tic
     details = {"initialization": candidate.planner, "search": result.record,
                "chosen": result.name}
@@ -103,7 +96,7 @@ def clear_starts(scene: Scene, starts: dict[str, np.ndarray], config: Config,
                  geometry: ArmGeometry) -> list[str]:
     """The starts (in order) whose path neither presses on a box's top deeper than
     ``physics.press_tolerance`` nor enters a non-target box's side deeper than
-    ``physics.side_tolerance``, with the boxes at rest (`grasp_height.box_depths`: the
+    ``physics.side_tolerance``, with the boxes at rest (`geometry.box_depths`: the
     "clear" rule of the physics planner's height choice)."""
     depths = box_depths(geometry, starts, config, scene.target)
     physics = config.physics

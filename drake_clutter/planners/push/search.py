@@ -37,8 +37,8 @@ import numpy as np
 
 from drake_clutter.common.config import Config, PushSearchConfig
 from drake_clutter.planners.clearance import ShelfClearance
-from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.phi_judge import PhiVerdict, judge_paths
+from drake_clutter.planners.geometry import ArmGeometry
+from drake_clutter.planners.phi_judge import PhiVerdict, judge_paths
 from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
 from drake_clutter.planners.push.family import PushPath, ViaPoint, feasible, member_path
 from drake_clutter.scene.scenes import Scene
@@ -121,7 +121,7 @@ class Search:
         if not names:
             return {}
         return judge_paths(self.scene, {n: self.samples[n].q for n in names}, self.times,
-                           self.judge_config, self.pool, self.geometry, members,
+                           self.judge_config, self.geometry, self.pool, members,
                            complete=False)
 
     def frame(self, start: str):

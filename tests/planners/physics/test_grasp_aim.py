@@ -19,7 +19,8 @@ from drake_clutter.common.config import Config, PhysicsConfig
 from drake_clutter.phi.dynamics import initial_state
 from drake_clutter.phi.state import StateLayout, pose_to_box_state, scene_box_states
 from drake_clutter.planners.baseline import plan_baseline
-from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.physics.objective import PhysicsObjective, pregrasp_aim
 from drake_clutter.planners.physics.stage import stage_problem
 from drake_clutter.robot import pr2
@@ -117,7 +118,8 @@ def test_a_phi_stage_aims_at_its_paths_pregrasp(scene, high_path):
     geometry = ArmGeometry(scene, "capsules")
     aim = pregrasp_aim(geometry, high_path[-1], scene.target, OFFSET)
     for aim_T in (None, aim):
-        with stage_problem(scene, high_path, config, "capsules", aim_T=aim_T) as problem:
+        with stage_problem(PlanningContext(scene, config), high_path, "capsules",
+                           aim_T=aim_T) as problem:
             objective = getattr(problem.objective, "objective", problem.objective)  # HoldTail
             np.testing.assert_allclose(objective.aim_T, aim, atol=1e-12)
             nx = problem.dynamics.layout.nx

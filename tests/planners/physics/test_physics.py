@@ -23,15 +23,13 @@ from drake_clutter.phi.state import (
     pose_to_box_state,
     scene_box_states,
 )
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.geometry import SHELF, ArmGeometry, path_depths, path_press, pressing
 from drake_clutter.planners.physics import costs
-from drake_clutter.planners.physics.geometry import SHELF, ArmGeometry
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective
 from drake_clutter.planners.physics.penetration import (
     deep_penetration_term,
-    path_depths,
-    path_press,
     press_term,
-    pressing,
     segment_penetration,
 )
 from drake_clutter.scene import scenes
@@ -581,8 +579,9 @@ def test_postprocessing_clears_the_board_between_knots(scene):
     for substeps, spacing, clears in ((1, 0.0, False), (6, 0.0, True), (1, 0.01, True)):
         physics = dataclasses.replace(base.physics, post_substeps=substeps, w_speed=0.0,
                                       sweep_spacing=spacing)
-        q, result = postprocess(scene, path, dataclasses.replace(base, physics=physics),
-                                geometry)
+        q, result = postprocess(PlanningContext(scene, dataclasses.replace(base,
+                                                                           physics=physics)),
+                                path)
         if clears:
             assert result.term_history[0]["static"] > 1.0
             assert clearance(q[0], q[1]) > 0.0  # measured 0.0196 m
@@ -651,7 +650,7 @@ def test_preprocessing_keeps_the_pregrasp(scene, geometry, fig5_candidate):
     from drake_clutter.planners.physics.pipeline import preprocess
 
     q0 = fig5_candidate.trajectory.q
-    q, result = preprocess(scene, q0, Config(), geometry)
+    q, result = preprocess(PlanningContext(scene, Config()), q0)
     first, last = result.term_history[0], result.term_history[-1]
     assert sum(last.values()) <= sum(first.values())
     np.testing.assert_array_equal(q[0], q0[0])
@@ -695,8 +694,9 @@ def test_pre_and_post_processing_keep_the_pregrasp_and_the_open_gripper(name):
     (candidate,) = plan_baseline(shipped, config.baseline, alphas=[alpha])
     assert candidate.ok, candidate.reason
     q0 = candidate.trajectory.q
-    q_pre, _ = preprocess(shipped, q0, config)
-    q_post, _ = postprocess(shipped, q_pre, config)
+    context = PlanningContext(shipped, config)
+    q_pre, _ = preprocess(context, q0)
+    q_post, _ = postprocess(context, q_pre)
     for q in (q_pre, q_post):
         np.testing.assert_array_equal(q[-1], q0[-1])
         np.testing.assert_array_equal(q[:, -1], q0[:, -1])
@@ -709,13 +709,13 @@ def test_pre_w_vel_weights_the_preprocessings_c_vel(scene, geometry, fig5_candid
     from drake_clutter.planners.physics.pipeline import preprocess
 
     q0 = fig5_candidate.trajectory.q
-    runs = {w: preprocess(scene, q0, load_config(None, [f"physics.pre_w_vel={w}"]), geometry)
-            for w in (1.0, 100.0)}
+    runs = {w: preprocess(PlanningContext(scene, load_config(None, [f"physics.pre_w_vel={w}"])),
+                          q0) for w in (1.0, 100.0)}
     kink = {w: np.abs(np.diff(q[:, :7], 2, axis=0)).max() for w, (q, _) in runs.items()}
     assert kink[100.0] < 0.5 * kink[1.0]
     assert runs[1.0][1].term_history[0]["vel"] * 100 == pytest.approx(
         runs[100.0][1].term_history[0]["vel"])  # the same start, its c_vel weighted 100x
-    default, _ = preprocess(scene, q0, load_config(None, []), geometry)
+    default, _ = preprocess(PlanningContext(scene, load_config(None, [])), q0)
     np.testing.assert_array_equal(default, runs[1.0][0])  # None = the baseline's w_vel (1)
 
 
@@ -727,7 +727,7 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate, control
     config = load_config(None, ["physics.iterations=2", "physics.sphere_iterations=1",
                                 "physics.pre_iterations=2", "physics.post_iterations=2",
                                 "dynamics.workers=0", "dynamics.derivative_stride=4",
-                                f"physics.controls={controls}", "physics.select_press=true"])
+                                f"physics.controls={controls}"])
     (plan,) = plan_physics(scene, config, [fig5_candidate])
     assert plan.ok and plan.planner == "physics", plan.reason
     assert set(plan.timings) == {"height", "pre", "sphere", "full", "post", "select"}
@@ -754,14 +754,11 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate, control
     best = int(np.argmin(starts))
     assert stages["full"]["started_from"] == ("previous stage" if best == 0
                                               else f"alternative {best}")
-    # the plan is the best in phi of the post-processed, pre-processed and start paths that do
-    # not press on a box's top (all of them where every one presses)
+    # the plan is the best in phi of the post-processed, pre-processed and start paths
     select = plan.details["select"]
-    values, presses = select["objectives"], select["presses"]
+    values = select["objectives"]
     assert set(values) == {"post", "pre", "baseline"} and values["baseline"] is not None
-    clean = [n for n in values if presses[n] <= config.physics.press_tolerance] or list(values)
-    assert select["chosen"] in clean
-    assert all(values[n] is None or values[select["chosen"]] <= values[n] for n in clean)
+    assert all(values[n] is None or values[select["chosen"]] <= values[n] for n in values)
     if select["chosen"] == "baseline" and height["chosen"] == "0.5":  # the start unchanged
         np.testing.assert_array_equal(plan.trajectory.q, fig5_candidate.trajectory.q)
     feedback = plan.details["feedback"]
@@ -866,12 +863,14 @@ def test_phi_stages_get_the_trust_region_and_kinematic_ones_do_not():
 
 
 def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch):
+    from types import SimpleNamespace
+
     from drake_clutter.common.config import Config
     from drake_clutter.planners.physics import pipeline as physics
 
     calls = []
 
-    def stage(scene, q, config, variant, iterations, pool, times, alternatives=(),
+    def stage(context, q, variant, iterations, pool, times, alternatives=(),
               approach=None, min_opening=None, deadline=None, aim_T=None):
         calls.append(q)
         if q[0, 0] == 1.0:  # phi cannot simulate the previous stage's path
@@ -880,20 +879,20 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
 
     monkeypatch.setattr(physics, "physics_stage", stage)
     previous, baseline = np.ones((3, 8)), np.zeros((3, 8))
-    q, _, info = physics._phi_stage_or_restart(None, (previous, baseline), Config(),
-                                               "capsules", 1, None, None)
+    context = SimpleNamespace(config=Config())
+    q, _, info = physics._phi_stage_or_restart(context, (previous, baseline), "capsules", 1,
+                                               None, None)
     assert q is baseline and len(calls) == 2 and info["started_from"].startswith("baseline")
     with pytest.raises(physics.PhiFailure):  # nothing to fall back to
-        physics._phi_stage_or_restart(None, (previous, previous.copy()), Config(), "capsules",
-                                      1, None, None)
+        physics._phi_stage_or_restart(context, (previous, previous.copy()), "capsules", 1,
+                                      None, None)
 
 
 def test_select_path_takes_the_lowest_objective_ties_to_the_first(monkeypatch):
     """`select_path` on a fake phi: the lowest objective wins, a tie goes to the earlier name,
     a path phi cannot roll out (inf) is reported as None and never chosen over a finite one,
-    and when phi fails on every path the first is kept (the press ranking off: phi alone)."""
+    and when phi fails on every path the first is kept."""
     from contextlib import contextmanager
-    from dataclasses import replace
     from types import SimpleNamespace
 
     from drake_clutter.common.config import Config
@@ -902,79 +901,25 @@ def test_select_path_takes_the_lowest_objective_ties_to_the_first(monkeypatch):
     pruned_for = []
 
     @contextmanager
-    def problem(scene, q, config, variant, pool, knot_time, approach, also=(), aim_T=None):
+    def problem(context, q, variant, pool, knot_time, approach, also=(), aim_T=None):
         pruned_for.append(1 + len(also))
         yield SimpleNamespace(augmented=None, objective=None, z0=None,
                               report=SimpleNamespace(summary=lambda: "kept 0 of 0 boxes"))
 
     values = {}
-    phi_only = replace(Config(), physics=replace(Config().physics, select_press=False))
+    context = SimpleNamespace(config=Config())
     monkeypatch.setattr(physics, "stage_problem", problem)
     monkeypatch.setattr(physics, "_path_objective", lambda d, o, z, q: values[q[0, 0]])
     paths = {name: np.full((3, 8), float(i)) for i, name in enumerate(("post", "pre", "baseline"))}
     values.update({0.0: 5.0, 1.0: 3.0, 2.0: 3.0})
-    chosen, info = physics.select_path(None, paths, phi_only)
+    chosen, info = physics.select_path(context, paths)
     assert chosen == "pre" and info["objectives"] == {"post": 5.0, "pre": 3.0, "baseline": 3.0}
     assert pruned_for == [3]  # one phi pruned for all three paths
     values.update({0.0: float("inf"), 1.0: float("inf"), 2.0: 7.0})
-    chosen, info = physics.select_path(None, paths, phi_only)
+    chosen, info = physics.select_path(context, paths)
     assert chosen == "baseline" and info["objectives"]["post"] is None
     values.update({2.0: float("inf")})
-    assert physics.select_path(None, paths, phi_only)[0] == "post"
-
-
-def test_select_press_ranks_pressing_paths_last(monkeypatch):
-    """With ``physics.select_press`` a path whose press is deeper than ``press_tolerance``
-    loses to any path that is not, whatever phi's objectives; among pressing paths (or with
-    the flag off) the objective decides; the presses are reported."""
-    from contextlib import contextmanager
-    from dataclasses import replace
-    from types import SimpleNamespace
-
-    from drake_clutter.common.config import Config
-    from drake_clutter.planners.physics import pipeline as physics
-
-    @contextmanager
-    def problem(scene, q, config, variant, pool, knot_time, approach, also=(), aim_T=None):
-        yield SimpleNamespace(augmented=None, objective=None, z0=None,
-                              report=SimpleNamespace(summary=lambda: ""))
-
-    monkeypatch.setattr(physics, "stage_problem", problem)
-    monkeypatch.setattr(physics, "_path_objective", lambda d, o, z, q: {0.0: 1.0, 1.0: 2.0,
-                                                                         2.0: 3.0}[q[0, 0]])
-    presses = {"post": 0.03, "pre": 0.0004, "baseline": 0.0}
-    monkeypatch.setattr(physics, "_presses",
-                        lambda scene, paths, config, geometry=None: dict(presses))
-    paths = {name: np.full((3, 8), float(i)) for i, name in enumerate(("post", "pre", "baseline"))}
-    on = Config()
-    on = replace(on, physics=replace(on.physics, select_press=True))
-    off = replace(on, physics=replace(on.physics, select_press=False))
-    chosen, info = physics.select_path(None, paths, on)
-    assert chosen == "pre" and info["presses"] == presses  # 0.4 mm is within the tolerance
-    presses.update(pre=0.01, baseline=0.02)  # all press: the objective decides
-    assert physics.select_path(None, paths, on)[0] == "post"
-    presses.update(post=0.03, pre=0.01, baseline=0.0)
-    assert physics.select_path(None, paths, on)[0] == "baseline"
-    chosen, info = physics.select_path(None, paths, off)  # off: phi alone
-    assert chosen == "post" and "presses" not in info
-
-
-def test_presses_reads_the_path_press_of_each_path(scene):
-    """`_presses`: `penetration.path_press` of each path on the scene's boxes at rest, with
-    ``physics.press_substeps`` and ``press_normal_z``, whatever another geometry did."""
-    from drake_clutter.common.config import Config
-    from drake_clutter.planners.physics import pipeline as physics
-    from drake_clutter.planners.physics.geometry import ArmGeometry
-    from drake_clutter.planners.physics.penetration import path_press
-
-    config = Config()
-    paths = {"still": np.array([Q_PREGRASP, Q_PREGRASP]),
-             "moving": np.array([Q_PREGRASP, Q_PREGRASP + 0.05])}
-    found = physics._presses(scene, paths, config)
-    fresh = ArmGeometry(scene, "capsules")
-    assert found == {n: path_press(fresh, q, config.physics.press_substeps,
-                                   config.physics.press_normal_z) for n, q in paths.items()}
-    assert all(v >= 0.0 for v in found.values())
+    assert physics.select_path(context, paths)[0] == "post"
 
 
 def test_failed_candidates_pass_through(scene):
@@ -1232,7 +1177,8 @@ def test_parallel_line_search_gives_the_serial_phi_stage(scene, fig5_candidate):
         for parallel in (False, True):
             config = load_config(None, ["dynamics.derivative_stride=4",
                                         f"physics.parallel_line_search={parallel}"])
-            runs[parallel] = physics_stage(scene, q, config, "capsules", 2, pool)
+            runs[parallel] = physics_stage(PlanningContext(scene, config), q, "capsules", 2,
+                                           pool)
     (q_serial, serial, _), (q_parallel, parallel, info) = runs[False], runs[True]
     assert parallel.iterations >= 1 and info["phi_failures"] == 0
     np.testing.assert_array_equal(q_parallel, q_serial)
@@ -1248,8 +1194,8 @@ def test_spline_controls_keep_a_phi_stage_on_the_baselines_spline(scene, fig5_ca
     the baseline's path (a spline of that basis) starts it unchanged, the objective never
     rises, and the result is still a spline from the same start within the joint limits."""
     from drake_clutter.common.config import load_config
-    from drake_clutter.planners.baseline import spline_basis
     from drake_clutter.planners.physics.pipeline import control_bounds, physics_stage, spline_path
+    from drake_clutter.trajectory import spline_basis
 
     config = load_config(None, ["dynamics.workers=0", "dynamics.derivative_stride=4",
                                 "physics.controls=spline"])
@@ -1257,7 +1203,7 @@ def test_spline_controls_keep_a_phi_stage_on_the_baselines_spline(scene, fig5_ca
     basis = spline_basis(len(q0), config.physics.control_points,
                          config.baseline.opt_spline_order)
     np.testing.assert_allclose(spline_path(basis, q0), q0, atol=1e-9)
-    q, result, info = physics_stage(scene, q0, config, "capsules", 2)
+    q, result, info = physics_stage(PlanningContext(scene, config), q0, "capsules", 2)
     assert result.iterations >= 1 and info["phi_failures"] == 0
     # its own fit of the start moves a knot by ~1e-12 rad, which phi's chaos amplifies
     assert result.cost_history[0] == pytest.approx(info["start_objectives"][0], rel=1e-6)

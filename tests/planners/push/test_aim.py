@@ -11,7 +11,7 @@ from drake_clutter.common.config import Config
 from drake_clutter.planners.approach import static_planning_world
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
-from drake_clutter.planners.physics.geometry import ArmGeometry
+from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.push.aim import (
     Obstruction,
     aimed_member,

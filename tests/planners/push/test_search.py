@@ -13,8 +13,9 @@ from drake_clutter.common.config import Config, load_config
 from drake_clutter.planners.approach import static_planning_world
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.clearance import ShelfClearance
-from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.phi_judge import PhiReading, PhiVerdict
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.geometry import ArmGeometry
+from drake_clutter.planners.phi_judge import PhiReading, PhiVerdict
 from drake_clutter.planners.push import search as search_module
 from drake_clutter.planners.push.family import PushPath, ViaPoint
 from drake_clutter.planners.push.search import perturb, run_search
@@ -145,7 +146,7 @@ def test_the_push_planner_is_registered_and_plans_every_angle():
 
 def test_members_rolled_out_in_workers_read_the_same(setting):
     from drake_clutter.phi.workers import WorkerPool
-    from drake_clutter.planners.physics.phi_judge import judge_paths
+    from drake_clutter.planners.phi_judge import judge_paths
 
     scene, trajectory, geometry, _ = setting
     config = load_config(None, ["ensemble.members=2", "dynamics.engine=mujoco"])
@@ -153,7 +154,7 @@ def test_members_rolled_out_in_workers_read_the_same(setting):
     serial = judge_paths(scene, paths, trajectory.times, config, geometry=geometry)
     pool = WorkerPool(2)
     try:
-        spread = judge_paths(scene, paths, trajectory.times, config, pool, geometry)
+        spread = judge_paths(scene, paths, trajectory.times, config, geometry, pool)
     finally:
         pool.close()
     assert spread["a"].to_data() == serial["a"].to_data()
@@ -199,7 +200,7 @@ def test_a_pick_that_reads_no_grasp_falls_back_to_the_baseline_path(kinds, fallb
     from drake_clutter.planners.push import planner as planner_module
     from drake_clutter.planners.push.search import SearchResult
 
-    scene, trajectory, geometry, clearance = setting
+    scene, trajectory, _, _ = setting
     bent = trajectory.q + 0.01
     record = {"chosen": "0.5/r0m0", "verdicts": {"0.5/r0m0": {"kinds": kinds}}}
     monkeypatch.setattr(planner_module, "run_search",
@@ -208,7 +209,8 @@ def test_a_pick_that_reads_no_grasp_falls_back_to_the_baseline_path(kinds, fallb
                                 "push_search.clear_first=false",
                                 f"push_search.fallback={str(fallback).lower()}"])
     (baseline,) = plan_baseline(scene, config.baseline, alphas=[0.0])
-    candidate = planner_module.push_candidate(scene, baseline, config, geometry, clearance, 0)
+    context = PlanningContext(scene, config)
+    candidate = planner_module.push_candidate(context, baseline, 0)
     assert candidate.details["chosen"] == returned
     assert candidate.details["search"]["chosen"] == "0.5/r0m0"
     expected = baseline.trajectory.q if returned == "baseline" else bent

@@ -3,17 +3,14 @@
 The judge replays a plan in Bullet and sorts it into Sec. III's classes; a planner may not
 (Bullet and the mesh arm are the judge's alone). This reads the same classes on phi: the plan
 rolled out with its held knots after Delta (``ensemble.judge_hold_knots``) in each of phi's
-ensemble members (`ensemble.member_world`: member 0 the scene, members k >= 1 every box moved
+ensemble members (`members.member_world`: member 0 the scene, members k >= 1 every box moved
 and its mass and friction scaled from the planner's seeds ``[ensemble.seed, k]``, never the
 judge's), and in each member:
 
 * **kinematic failure** - the plan leaves the PR2's joint or speed limits
-  (`trajectory.plan_limit_violation`, the judge's own check), phi fails to roll it out, or, by
-  ``ensemble.kinematic_reading``: phi's jam measure reaches ``dynamics.jam_depth`` ("jam",
-  `phi.jam`: the arm's commanded approach into a box a rigid world would not let move, largest
-  knot of the path and the hold), the arm presses on a box's top deeper than
-  ``physics.press_tolerance`` with the boxes at rest ("press", `penetration.path_depths`), or
-  either ("jam_or_press");
+  (`trajectory.plan_limit_violation`, the judge's own check), phi fails to roll it out, or
+  phi's jam measure reaches ``dynamics.jam_depth`` (`phi.jam`: the arm's commanded approach
+  into a box a rigid world would not let move, largest knot of the path and the hold);
 * **objects falling** - a box's centre off the board or below its top
   (`grading.off_the_board`) at the end of the hold;
 * **failure to grasp** - the target not in the last knot's pre-grasp zone
@@ -41,9 +38,9 @@ from drake_clutter.phi.dynamics import initial_state, make_spec
 from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import prune
 from drake_clutter.phi.state import ARM_DIM, scene_box_states
-from drake_clutter.planners.physics.ensemble import member_world
-from drake_clutter.planners.physics.geometry import ArmGeometry
-from drake_clutter.planners.physics.penetration import path_depths
+from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.geometry import ArmGeometry, path_depths
+from drake_clutter.planners.members import member_world
 from drake_clutter.scene.grading import (
     GRADE_CLASSES,
     OutcomeKind,
@@ -61,12 +58,12 @@ from drake_clutter.trajectory import Trajectory, plan_limit_violation
 @dataclass(frozen=True)
 class PhiFindings:
     """What one member's rollout of a plan showed, before the classes' precedence: the plan's
-    joint or speed limit violation ("" for none), its deepest press on a box's top with the
-    boxes at rest (m), phi's largest jam measure over the path and the hold (m; None where
-    phi failed), whether phi failed, the boxes fallen, the obstacles tipped, why the target is
-    not grasped ("" when it is), the boxes tipped or fallen (the target included), and
-    whether the rollout was stopped (or not run) once a kinematic failure was certain (the box
-    fates are then not read: `judge_paths` with ``complete=False``)."""
+    joint or speed limit violation ("" for none), its deepest press on a box's top with the boxes at
+    rest (m; recorded, not read), phi's largest jam measure over the path and the hold (m; None
+    where phi failed), whether phi failed, the boxes fallen, the obstacles tipped, why the target is
+    not grasped ("" when it is), the boxes tipped or fallen (the target included), and whether the
+    rollout was stopped (or not run) once a kinematic failure was certain (the box fates are then
+    not read: `judge_paths` with ``complete=False``)."""
 
     limit: str = ""
     press: float = 0.0
@@ -110,31 +107,20 @@ class PhiReading:
 
 
 def kinematic_reason(findings: PhiFindings, config: Config) -> str:
-    """The kinematic failure the findings show under ``ensemble.kinematic_reading`` ("" for
-    none): a limit violation or a failed rollout always; a jam of at least
-    ``dynamics.jam_depth`` ("jam", "jam_or_press"); a press deeper than
-    ``physics.press_tolerance`` ("press", "jam_or_press")."""
-    reading = config.ensemble.kinematic_reading
+    """The kinematic failure the findings show ("" for none): a limit violation, a failed
+    rollout, or a jam of at least ``dynamics.jam_depth``."""
     if findings.limit:
         return findings.limit
     if findings.failed:
         return "phi failed on the rollout"
-    if (reading in ("jam", "jam_or_press") and findings.jam is not None
-            and findings.jam >= config.dynamics.jam_depth):
+    if findings.jam is not None and findings.jam >= config.dynamics.jam_depth:
         return f"jam {findings.jam * 1e3:.1f} mm"
-    if reading in ("press", "jam_or_press") and findings.press > config.physics.press_tolerance:
-        return f"presses on a box top {findings.press * 1e3:.1f} mm"
     return ""
 
 
 def reading_of(findings: PhiFindings, config: Config) -> PhiReading:
-    """Sec. III's class of the findings with the judge's precedence (`grading.classify`);
-    ValueError for stopped findings that ``config``'s reading does not fail."""
+    """Sec. III's class of the findings with the judge's precedence (`grading.classify`)."""
     reason = kinematic_reason(findings, config)
-    if findings.stopped and not reason:
-        raise ValueError("findings of a stopped rollout read without a kinematic failure: "
-                         f"ensemble.kinematic_reading {config.ensemble.kinematic_reading!r} "
-                         "differs from the one they were judged with")
     kind, why = classify(reason, findings.fallen, findings.grasp, findings.tipped)
     return PhiReading(kind.value, why, findings.disturbed)
 
@@ -252,7 +238,7 @@ def plan_checks(scene: Scene, geometry: ArmGeometry, q: np.ndarray, times: np.nd
                 config: Config) -> tuple[str, float]:
     """The member-independent checks of a knot path (T + 1, 8) at ``times`` (s): the judge's
     joint and speed limits ("" when kept) and the deepest press on a box's top with the boxes
-    at rest (m, `penetration.path_depths`)."""
+    at rest (m, `geometry.path_depths`)."""
     violation = plan_limit_violation(Trajectory(np.asarray(times, float), q), config.evaluation)
     press, _ = path_depths(geometry, q, config.physics.press_substeps,
                            config.physics.press_normal_z, (scene.target,))
@@ -329,20 +315,16 @@ def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
 
 
 def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, config: Config,
-                pool=None, geometry: ArmGeometry | None = None,
-                members: Sequence[int] | None = None, complete: bool = True
-                ) -> dict[str, PhiVerdict]:
+                geometry: ArmGeometry, pool=None, members: Sequence[int] | None = None,
+                complete: bool = True) -> dict[str, PhiVerdict]:
     """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's ensemble
-    members ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet
-    the same members, each member's phi pruned for all of them and rolled out from each path's
-    own start (`judged_rollouts`). ``complete=False`` reads the same classes with less work: a
-    path the checks already fail (a limit, or a press under a press reading) is not rolled
-    out, and a rollout stops once its jam reads a kinematic failure (its findings then say
-    ``stopped`` and hold no box fates, so they cannot be read with another
-    ``kinematic_reading``). ``pool`` (a `phi.workers.WorkerPool`): the members are rolled out
-    in its workers, one member a task (the same verdicts). ``geometry``: the capsule arm with
-    the boxes at rest (built here if None)."""
-    geometry = geometry or ArmGeometry(scene, "capsules")
+    members ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet the
+    same members, each member's phi pruned for all of them and rolled out from each path's own start
+    (`judged_rollouts`). ``complete=False`` reads the same classes with less work: a path out of the
+    limits is not rolled out, and a rollout stops once its jam reads a kinematic failure (its
+    findings then say ``stopped`` and hold no box fates). ``pool`` (a `phi.workers.WorkerPool`): the
+    members are rolled out in its workers, one member a task (the same verdicts; each worker builds
+    its own arm). ``geometry``: the capsule arm with the boxes at rest (`PlanningContext.arm`)."""
     checks = {name: plan_checks(scene, geometry, q, times, config) for name, q in paths.items()}
     order = list(range(config.ensemble.members) if members is None else members)
     jobs = [(scene, paths, np.asarray(times, float), config, checks, m, complete)
@@ -350,23 +332,23 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
     if pool is None:
         per_member = [_member_found(job, geometry) for job in jobs]
     else:
-        per_member = pool.run(_member_found, jobs)
+        per_member = pool.run(_member_task, jobs)
     return {name: PhiVerdict.from_findings([found[name] for found in per_member], config)
             for name in paths}
 
 
-def _member_found(job, geometry: ArmGeometry | None = None) -> dict[str, PhiFindings]:
-    """One member's findings of every path (a worker task: the geometry is built here when
-    not given)."""
+def _member_task(job) -> dict[str, PhiFindings]:
+    """`_member_found` in a worker process, with the worker's own capsule arm at rest."""
+    scene, config = job[0], job[3]
+    return _member_found(job, PlanningContext(scene, config).arm())
+
+
+def _member_found(job, geometry: ArmGeometry) -> dict[str, PhiFindings]:
+    """One member's findings of every path, ``geometry`` the capsule arm with the boxes at
+    rest."""
     scene, paths, times, config, checks, member, complete = job
-    geometry = geometry or ArmGeometry(scene, "capsules")
-    reading = config.ensemble.kinematic_reading
-    decided = set() if complete else {
-        name for name, (limit, press) in checks.items()
-        if limit or (reading in ("press", "jam_or_press")
-                     and press > config.physics.press_tolerance)}
-    stop = (config.dynamics.jam_depth if not complete and reading in ("jam", "jam_or_press")
-            else None)
+    decided = set() if complete else {name for name, (limit, _) in checks.items() if limit}
+    stop = None if complete else config.dynamics.jam_depth
     world, cfg = member_world(scene, config, member)
     rolled = judged_rollouts(world, {n: q for n, q in paths.items() if n not in decided}, cfg,
                              float(np.diff(times[:2])[0]), stop)

@@ -1,4 +1,5 @@
-"""Signed distances between the arm and its obstacles, with Jacobians, for the physics costs.
+"""The arm's planning geometry: signed distances between the arm and its obstacles, with
+Jacobians, and the geometric checks of a path against the boxes at rest (shared by the planners).
 
 A kinematic Drake planning world (`drake_world.build_planning_world`: the arm in one geometry
 variant, the shelf, every scene box as a free body) answers two questions at a configuration of
@@ -14,6 +15,10 @@ boxes (W):
 
 The planning world filters every pair but arm-vs-obstacle, so box-box and box-shelf distances
 are not available here.
+
+`path_depths` (and `box_depths` over several paths) reads the deepest press on a box's top and
+the deepest entry into a box's side along a path: the judge's usual kinematic failure, and side
+contact, as geometric checks on the boxes where the geometry puts them.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import numpy as np
 from pydrake.math import RigidTransform
 from pydrake.multibody.tree import JacobianWrtVariable
 
+from drake_clutter.common.config import Config
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import robot_positions
 from drake_clutter.worlds.drake_world import World, box_rest_pose, build_planning_world
@@ -179,3 +185,47 @@ class ArmGeometry:
 
 def _skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def pressing(contacts: list[Contact], normal_z: float) -> list[Contact]:
+    """The arm-box pairs of ``contacts`` whose normal from the box to the arm (W) has an up
+    component above ``normal_z``: the arm above a box's top."""
+    return [c for c in contacts if c.obstacle != SHELF and c.normal[2] > normal_z]
+
+
+def path_press(geometry: ArmGeometry, q: np.ndarray, substeps: int, normal_z: float) -> float:
+    """The deepest press over a path (m, 0 where none): the largest penetration of an
+    arm-box pair that presses down (`pressing`) over ``substeps`` configurations per knot
+    interval of ``q`` (knots, 8 each), the boxes where ``geometry`` last put them (at first
+    their resting poses). The judge's usual kinematic failure as a geometric check."""
+    return path_depths(geometry, q, substeps, normal_z)[0]
+
+
+def path_depths(geometry: ArmGeometry, q: np.ndarray, substeps: int, normal_z: float,
+                side_exclude: tuple[str, ...] = ()) -> tuple[float, float]:
+    """(press, side) over a path (m, 0 where none): the deepest penetration of an arm-box pair
+    that presses down (`pressing`, every box) and of one that does not (the arm against a
+    box's side; boxes in ``side_exclude`` skipped), over ``substeps`` configurations per knot
+    interval of ``q`` (knots, 8 each), the boxes where ``geometry`` last put them."""
+    q = np.asarray(q, dtype=float)
+    press = side = 0.0
+    for q_a, q_b in zip(q[:-1], q[1:], strict=True):
+        for lam in np.arange(1, substeps + 1) / substeps:
+            found = geometry.contacts((1 - lam) * q_a + lam * q_b, None, 0.0, "boxes")
+            down = {id(c) for c in pressing(found, normal_z)}
+            for c in found:
+                if id(c) in down:
+                    press = max(press, -c.distance)
+                elif c.obstacle not in side_exclude:
+                    side = max(side, -c.distance)
+    return press, side
+
+
+def box_depths(geometry: ArmGeometry, paths: dict, config: Config, target: str) -> dict:
+    """Each knot path's (T + 1, 8) (press, side) depths (m; `geometry.path_depths` at
+    ``physics.press_substeps`` configurations per interval, normals above
+    ``physics.press_normal_z``; sides of every box but ``target``), the boxes where
+    ``geometry`` last put them, by key."""
+    return {k: path_depths(geometry, np.asarray(q, dtype=float), config.physics.press_substeps,
+                           config.physics.press_normal_z, (target,))
+            for k, q in paths.items()}

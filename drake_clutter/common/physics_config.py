@@ -130,20 +130,8 @@ class PhysicsConfig:
     w_static: float = bounded(1e3, ge=0.0)
     # weight of c_acc, unitless; Table II
     w_acc: float = bounded(1e-3, ge=0.0)
-    # multiple of c_acc's Hessian added to the phi stages' model only (0 = off), unitless; ours
-    step_smoothing: float = bounded(0.0, ge=0.0)
-    # weight of c_static's steep part in the phi stages (0 = off), unitless; ours
-    w_static_deep: float = bounded(0.0, ge=0.0)
-    # depth the arm may sink into the shelf before c_static's steep part, m; ours
-    static_depth: float = bounded(0.003, ge=0.0)
-    # configurations per knot interval in the phi stages' c_static (1: the knot), count; ours
-    phi_static_substeps: int = bounded(1, ge=1)
     # weight of c_force (Table II says 10), unitless; ours
     w_force: float = bounded(0.01, ge=0.0)
-    # weight of c_force_excess on phi's forces beyond force_limit (0 = off), unitless; ours
-    w_force_excess: float = bounded(0.0, ge=0.0)
-    # force at which c_force_excess starts, N; ours
-    force_limit: float = bounded(30.0, ge=0.0)
     # weight of c_motion, unitless; Table II
     w_motion: float = bounded(1e-3, ge=0.0)
     # weight of c_upright, unitless; Table II
@@ -156,26 +144,14 @@ class PhysicsConfig:
     w_grp_open: float = bounded(1.0, ge=0.0)
     # weight of c_dynamic in the Sec. V-A pre-processing (as w_static_hull), unitless; ours
     w_dynamic: float = bounded(80.0, ge=0.0)
-    # weight of c_press, the arm's penetration into a box from above (0 = off), unitless; ours
-    w_press: float = bounded(0.0, ge=0.0)
     # up component of a contact normal (box to arm) beyond which the arm presses, unitless; ours
     press_normal_z: float = bounded(0.5, ge=0.0, lt=1.0)
-    # the boxes' poses the phi stages' c_press reads ("phi": phi's; "start": at rest), choice; ours
-    press_poses: Literal["phi", "start"] = "start"
     # weight of c_match in the Sec. V-B post-processing, unitless; ours
     w_match: float = bounded(1.0, ge=0.0)
     # weight of c_match_vel in the Sec. V-B post-processing, unitless; ours
     w_match_vel: float = bounded(1.0, ge=0.0)
     # knots phi runs past Delta with the arm held (Table II's "all"), count; ours
     hold_knots: int = bounded(5, ge=0)
-    # weight of c_settled_upright, each box's tilt (rad) at the hold tail's end, unitless; ours
-    w_settled_upright: float = bounded(0.0, ge=0.0)
-    # weight of c_settled_fall, each box's saturated distance off the board there, unitless; ours
-    w_settled_fall: float = bounded(0.0, ge=0.0)
-    # distance off the board at which a box's c_settled_fall is half its weight, m; ours
-    settled_fall_scale: float = bounded(0.02, gt=0.0)
-    # derivative stride of the hold knots' Jacobians (None: dynamics'), count; ours
-    hold_derivative_stride: int | None = bounded(None, ge=1)
     # weight of c_speed, the squared excess over the speed cap, unitless; ours
     w_speed: float = bounded(1.0e4, ge=0.0)
     # c_speed's cap, a fraction of the PR2's joint speed limits, unitless; ours
@@ -206,8 +182,6 @@ class PhysicsConfig:
     pre_iterations: int = bounded(10, ge=0)
     # multiple of w_grasp and w_grp_horiz at the pre-processing's last knot, unitless; ours
     pre_terminal_weight: float = bounded(100.0, ge=0.0)
-    # w_vel of the pre-processing's c_vel (None: the baseline's), unitless; Sec. V-A
-    pre_w_vel: float | None = bounded(None, ge=0.0)
     # the pre-processing keeps the baseline's last knot and gripper openings (bounds), flag; ours
     pre_keep_pregrasp: bool = True
     # the post-processing keeps its reference's last knot and gripper openings (bounds), flag; ours
@@ -280,9 +254,7 @@ class PhysicsConfig:
     def relations(self):
         """(field, holds, what it must be) between this dataclass's fields."""
         return [("sphere_iterations", self.sphere_iterations <= self.iterations,
-                 f"at most iterations ({self.iterations})"),
-                ("w_static_deep", self.w_static_deep == 0 or self.w_static > 0,
-                 "0 while w_static is 0 (it scales the steep part)")]
+                 f"at most iterations ({self.iterations})")]
 
 
 @dataclass(frozen=True)

@@ -131,7 +131,6 @@ def test_a_value_outside_a_field_s_range_is_refused_in_one_line(path, f, tp, cap
     (["evaluation.force_window=0.001"], "evaluation.force_window", "control period"),
     (["generator.target_depth.high=0.5"], "generator.target_depth", "boards' depth"),
     (["generator.boxes.height.low=0.3"], "generator.boxes.height.high", "at least low"),
-    (["physics.w_static=0", "physics.w_static_deep=1"], "physics.w_static_deep", "w_static"),
     (["dynamics.contact_model=point", "dynamics.derivative_method=autodiff"],
      "dynamics.derivative_method", "'point'"),
     (["world.contact_approximation=lagged", "dynamics.derivative_method=hybrid"],

@@ -93,23 +93,6 @@ def motion(p: np.ndarray, p_start: np.ndarray) -> Term:
     return _quadratic(p - p_start, np.eye(len(p)))
 
 
-def off_board(p: np.ndarray, centre_xy: np.ndarray, half_xy: np.ndarray, top: float,
-              scale: float) -> Term:
-    """c_settled_fall = r^2 / (r^2 + scale^2) of a box centre p (3,) in W, r (m) its distance
-    outside the board: beyond the footprint's half extents ``half_xy`` about ``centre_xy``
-    (x, y) or below the board's top surface ``top`` (the judge's "fallen", Sec. III). 0 on
-    the board, 1/2 at r = scale, towards 1 as the box falls (phi has no floor, so it saturates
-    instead of growing with the fall). Over p; the Hessian is the majorizer's 2 f'(r^2) on the
-    axes where the box is outside (f is concave in r^2), positive semi-definite."""
-    offset = p[:2] - np.asarray(centre_xy, dtype=float)
-    e = np.zeros(3)
-    e[:2] = np.sign(offset) * np.maximum(0.0, np.abs(offset) - np.asarray(half_xy, dtype=float))
-    e[2] = min(0.0, float(p[2]) - top)
-    r2, s2 = float(e @ e), scale ** 2
-    slope = s2 / (r2 + s2) ** 2  # d value / d r^2
-    return Term(r2 / (r2 + s2), 2.0 * slope * e, 2.0 * slope * np.diag((e != 0.0) * 1.0))
-
-
 def _smooth_angle(cos_angle: float, dcos: np.ndarray, ddcos: np.ndarray | None,
                   majorize: bool = False) -> Term:
     """f = sqrt(theta^2 + eps^2) - eps for theta = acos(c), from c, dc/dargs and d2c/dargs2.

@@ -11,8 +11,6 @@ Knot 0 (the start, fixed) to knot T = Delta; Table II's time windows, as we read
 * per knot t = 1..T, on the state z_t (the arm at q^t, the boxes where phi put them):
   c_static (arm vs shelf, "t <= Delta"), c_motion, c_upright ("all": every knot of the plan;
   the boxes' motion after Delta is not simulated by the planner), c_force as a proxy (below);
-  ours, with w_press > 0: c_press (the arm over a box's top, the boxes where they started or
-  where phi put them: ``press_poses``);
 * per interval t = 0..T-1, on (z_t, u_t): c_acc over (q^(t-1), q^t, q^(t+1)); at t = 0
   q^(-1) = q^0 (the arm starts at rest); c_force from phi's forces of that knot ("all");
 * terminal, on z_T: c_grasp (tool frame to the target's centre), c_grp_horiz, c_grp_open.
@@ -32,11 +30,7 @@ Gauss-Newton expansion is w (Fx, Fu)^T f and w (Fx, Fu)^T (Fx, Fu). Without a so
 (``PhysicsConfig.force_source`` "proxy", or no phi) it is a penetration proxy on the knot's
 state: for every arm-vs-box pair in contact f = k (-d), k = ``force_stiffness``.
 
-Penetration (c_static, c_static_hull, c_dynamic, and ours, c_press: the arm over a box's top)
-is `penetration`'s. Optional in the phi stages (`PhysicsConfig.w_static_deep`,
-``phi_static_substeps``; off by default): a steep part 1/2 (depth - static_depth)^2
-(`deep_penetration_term`) and c_static as the mean over configurations between q^(t-1) (z's
-tail) and q^t.
+Penetration (c_static, c_static_hull, c_dynamic) is `penetration`'s.
 
 **The kinematic problems** (`KinematicObjective`, Sec. V-A and V-B): the boxes held fixed, the
 state is q^t (8) and the control q^(t+1). Pre-processing: c_static_hull + c_dynamic (arm vs the
@@ -60,10 +54,8 @@ from drake_clutter.planners.geometry import SHELF, ArmGeometry, Contact
 from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.costs import Term
 from drake_clutter.planners.physics.penetration import (
-    deep_penetration_term,
     distance_row,
     penetration_term,
-    press_term,
     segment_penetration,
 )
 from drake_clutter.robot import pr2
@@ -169,8 +161,6 @@ class PhysicsObjective:
         self.nx, self.ndx = layout.nx, layout.ndx
         self.nz = self.ndx + ARM_DIM
         self.p_start = layout.boxes(x0)[:, 4:7].copy()
-        self.start_poses = {n: box_state_to_pose(b)
-                            for n, b in zip(layout.box_names, layout.boxes(x0), strict=True)}
         self.target = target
         self.target_index = (layout.box_index(target) if target in layout.box_names else None)
         self.box_columns = {n: ARM_DIM + BOX_TANGENT * i
@@ -195,15 +185,11 @@ class PhysicsObjective:
         cfg, q = self.config, z[:ARM_DIM]
         contacts = self.geometry.contacts(q, self.box_poses(z), self.d_safe)
         out = {"static": self._static(z, contacts)}
-        if cfg.w_press > 0.0:
-            out["press"] = self._press(z)
         if self.forces is None:
             out["force"] = self._force(contacts).scaled(cfg.w_force)
         out.update(self._box_terms(z))
         if terminal:
             out.update(self._terminal(z))
-            if cfg.hold_knots == 0:  # no tail: Delta's state is the one left to settle
-                out.update(self.settled_terms(z))
         if approach and self.approach is not None:
             out.update(self._approach(z))
         return out
@@ -213,38 +199,12 @@ class PhysicsObjective:
         return t > T - self.config.approach_knots
 
     def _static(self, z: np.ndarray, contacts: list[Contact]) -> Term:
-        """Weighted c_static over dz: at the knot from ``contacts`` (``phi_static_substeps``
-        1), else the mean over that many configurations on the segment from q^(t-1) (z's
-        tail) to q^t; in ``static_geometry`` if given. With its steep part beyond
-        ``static_depth`` (``w_static_deep``)."""
-        cfg = self.config
-        geometry = self.static_geometry or self.geometry
-        deep = (cfg.w_static_deep / cfg.w_static if cfg.w_static > 0 else 0.0, cfg.static_depth)
-        q_prev = z[self.nx:self.nx + ARM_DIM]
-        if cfg.phi_static_substeps > 1:
-            term = segment_penetration(geometry, q_prev, z[:ARM_DIM], cfg.phi_static_substeps,
-                                       self.d_safe, shelf_only=True, deep=deep,
-                                       spacing=cfg.sweep_spacing)["shelf"]
-            columns = [*range(self.ndx, self.ndx + ARM_DIM), *range(ARM_DIM)]
-            return _embed(term, columns, self.nz).scaled(cfg.w_static)
+        """Weighted c_static over dz at the knot: from ``contacts``, or in ``static_geometry``
+        if given."""
         shelf = [c for c in contacts if c.obstacle == SHELF]
         if self.static_geometry is not None:
             shelf = self.static_geometry.contacts(z[:ARM_DIM], None, self.d_safe, "shelf")
-        static = penetration_term(shelf, self.d_safe, self.nz)
-        if deep[0] > 0.0:
-            static = static.plus(deep_penetration_term(shelf, deep[1], self.nz), deep[0])
-        return static.scaled(cfg.w_static)
-
-    def _press(self, z: np.ndarray) -> Term:
-        """Weighted c_press over dz: the arm at z's q^t in ``static_geometry`` (default:
-        ``geometry``) against the boxes where phi put them, or with ``press_poses`` "start"
-        where they started (a box phi pushed aside may be where the judge's arm lands on it)."""
-        cfg = self.config
-        geometry = self.static_geometry or self.geometry
-        poses = self.start_poses if cfg.press_poses == "start" else self.box_poses(z)
-        contacts = geometry.contacts(z[:ARM_DIM], poses, self.d_safe, "boxes")
-        boxes = [c for c in contacts if c.obstacle not in self.force_exclude]
-        return press_term(boxes, self.d_safe, self.nz, cfg.press_normal_z).scaled(cfg.w_press)
+        return penetration_term(shelf, self.d_safe, self.nz).scaled(self.config.w_static)
 
     def _force(self, contacts: list[Contact]) -> Term:
         touching = [c for c in contacts if c.obstacle != SHELF and c.distance < 0.0
@@ -271,36 +231,6 @@ class PhysicsObjective:
             upright = upright.plus(_embed(u, [start, start + 1, start + 2], nz))
         return {"motion": motion.scaled(self.config.w_motion),
                 "upright": upright.scaled(self.config.w_upright)}
-
-    def settled_terms(self, z: np.ndarray) -> dict[str, Term]:
-        """Weighted box-fate terms over dz on a settled state z (the hold tail's last knot),
-        priced as the judge grades it (Sec. III; weights in judge-equivalents, see
-        docs/log/decisions.md): c_settled_fall, each kept box's `costs.off_board` share F, and
-        c_settled_upright, each box's tilt theta (rad, as c_upright) times (1 - F): a box that
-        fell is priced as fallen, not by how it tumbled. Gauss-Newton: the product's cross
-        curvature is left out. Empty when both weights are 0."""
-        cfg = self.config
-        if cfg.w_settled_upright <= 0.0 and cfg.w_settled_fall <= 0.0:
-            return {}
-        shelf = self.geometry.scene.shelf
-        centre, half = np.array(shelf.center_xy), np.array([shelf.depth, shelf.width]) / 2
-        nz = self.nz
-        upright = Term(0.0, np.zeros(nz), np.zeros((nz, nz)))
-        fall = Term(0.0, np.zeros(nz), np.zeros((nz, nz)))
-        for i, b in enumerate(self.layout.boxes(z[:self.nx])):
-            start = ARM_DIM + BOX_TANGENT * i
-            f = costs.off_board(b[4:7], centre, half, shelf.top_height, cfg.settled_fall_scale)
-            u = costs.upright(box_state_to_pose(b).rotation().matrix(), gauss_newton=True,
-                              majorize=True, tilt=True)
-            kept = 1.0 - f.value
-            hessian = np.zeros((6, 6))
-            hessian[:3, :3] = kept * u.hessian
-            on_board = Term(u.value * kept, np.r_[kept * u.gradient, -u.value * f.gradient],
-                            hessian)
-            upright = upright.plus(_embed(on_board, list(range(start, start + 6)), nz))
-            fall = fall.plus(_embed(f, [start + 3, start + 4, start + 5], nz))
-        return {"settled_upright": upright.scaled(cfg.w_settled_upright),
-                "settled_fall": fall.scaled(cfg.w_settled_fall)}
 
     def _terminal(self, z: np.ndarray) -> dict[str, Term]:
         cfg, q = self.config, z[:ARM_DIM]
@@ -346,17 +276,13 @@ class PhysicsObjective:
         return {"approach": line.scaled(cfg.w_approach),
                 "approach_axis": axis.scaled(cfg.w_approach_axis)}
 
-    def acc_term(self, z: np.ndarray, u: np.ndarray, metric: float = 0.0) -> Term:
+    def acc_term(self, z: np.ndarray, u: np.ndarray) -> Term:
         """Weighted c_acc + w_speed c_speed over (dz, du) (nz + 8,) of the interval from z
-        with control u; with ``metric`` > 0, that multiple of c_acc's (unweighted) Hessian is
-        added to the Hessian alone (`PhysicsConfig.step_smoothing`)."""
+        with control u."""
         term = costs.acceleration(z[self.nx:], z[:ARM_DIM], u, self.knot_time)
         cols = (list(range(self.ndx, self.nz)) + list(range(ARM_DIM))
                 + list(range(self.nz, self.nz + ARM_DIM)))
         acc = _embed(term, cols, self.nz + ARM_DIM).scaled(self.config.w_acc)
-        if metric > 0.0:
-            smooth = _embed(term, cols, self.nz + ARM_DIM).hessian
-            acc = Term(acc.value, acc.gradient, acc.hessian + metric * smooth)
         speed = speed_limit(z[:ARM_DIM], u, self._max_step)
         speed = _embed(speed, list(range(ARM_DIM)) + cols[2 * ARM_DIM:], self.nz + ARM_DIM)
         return acc.plus(speed, self.config.w_speed)
@@ -377,26 +303,17 @@ class PhysicsObjective:
         return out
 
     def phi_force_terms(self, xs: np.ndarray, us: np.ndarray) -> dict[str, float]:
-        """Weighted c_force (and c_force_excess, see `force_cost`) from phi's contact forces
+        """Weighted c_force (`force_cost`) from phi's contact forces
         of the intervals (x_t, u_t)."""
         f = np.array([self.forces.step_forces(x, u) for x, u in zip(xs, us, strict=True)])
         return self.force_cost(f)[0]
 
     def force_cost(self, f: np.ndarray) -> tuple[dict[str, float], np.ndarray, np.ndarray]:
-        """Weighted c_force = w_force/2 ||f||^2 and (ours, with w_force_excess > 0)
-        c_force_excess = w_force_excess/2 ||max(0, f - force_limit)||^2 of contact-force
-        vectors f (..., nf) in N: their values, the gradient d cost / d f and the diagonal of
-        the Gauss-Newton Hessian (both shaped as f)."""
-        cfg = self.config
-        excess = np.maximum(0.0, f - cfg.force_limit)
-        values = {"force": 0.5 * cfg.w_force * float(np.sum(f * f))}
-        gradient = cfg.w_force * f
-        curvature = np.full(f.shape, cfg.w_force)
-        if cfg.w_force_excess > 0:
-            values["force_excess"] = 0.5 * cfg.w_force_excess * float(np.sum(excess ** 2))
-            gradient = gradient + cfg.w_force_excess * excess
-            curvature = curvature + cfg.w_force_excess * (excess > 0)
-        return values, gradient, curvature
+        """Weighted c_force = w_force/2 ||f||^2 of contact-force vectors f (..., nf) in N: its
+        value, the gradient d cost / d f and the diagonal of the Gauss-Newton Hessian (both
+        shaped as f)."""
+        w = self.config.w_force
+        return {"force": 0.5 * w * float(np.sum(f * f))}, w * f, np.full(f.shape, w)
 
     def quadratize(self, zs: np.ndarray, us: np.ndarray) -> Expansion:
         """Expansion in tangent coordinates (dz, du)."""
@@ -405,7 +322,7 @@ class PhysicsObjective:
         lxx, luu, lux = np.zeros((T, nz, nz)), np.zeros((T, nu, nu)), np.zeros((T, nu, nz))
         vx, vxx = np.zeros(nz), np.zeros((nz, nz))
         for t in range(T):
-            acc = self.acc_term(zs[t], us[t], self.config.step_smoothing)
+            acc = self.acc_term(zs[t], us[t])
             lx[t] += acc.gradient[:nz]
             lu[t] += acc.gradient[nz:]
             lxx[t] += acc.hessian[:nz, :nz]
@@ -458,12 +375,11 @@ class KinematicObjective:
     """Sec. V-A / V-B objectives over the state q^t (8) and control q^(t+1), boxes fixed.
 
     ``mode`` "pre": w_static_hull c_static_hull + w_dynamic c_dynamic (not the target) + w_vel
-    c_vel (+ w_press c_press, every box, if w_press > 0) per interval, c_grasp to
+    c_vel per interval, c_grasp to
     ``p_pregrasp`` and c_grp_horiz at the end, their Table II
     weights times ``pre_terminal_weight`` (they stand in for the baseline's hard constraint).
     ``mode`` "post": w_static c_static (the mean over ``post_substeps`` configurations of
-    the interval up to q^(t+1); + w_press c_press on the same, boxes at rest, if w_press > 0)
-    + w_match c_match + w_match_vel c_match_vel
+    the interval up to q^(t+1)) + w_match c_match + w_match_vel c_match_vel
     against ``q_ref`` (T + 1, 8), + w_speed c_speed over knots ``knot_time`` (s) apart (ours:
     pushing the arm out of the shelf made fig5's plan exceed a joint speed limit, measured).
     """
@@ -482,20 +398,14 @@ class KinematicObjective:
     def running(self, t: int, q: np.ndarray, u: np.ndarray) -> dict[str, Term]:
         """Weighted Terms over (q, u) (16,) of interval t."""
         cfg, eye = self.config, np.eye(ARM_DIM)
-        press_z = cfg.press_normal_z if cfg.w_press > 0.0 else None
         if self.mode == "pre":
             hull = segment_penetration(self.geometry, q, u, cfg.hull_substeps, self.d_safe,
-                                       (self.target,), spacing=cfg.sweep_spacing,
-                                       press_z=press_z)
-            out = {"static_hull": hull["shelf"].scaled(self.w_static_hull),
-                   "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
-                   "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
-            if press_z is not None:
-                out["press"] = hull["press"].scaled(cfg.w_press)
-            return out
+                                       (self.target,), spacing=cfg.sweep_spacing)
+            return {"static_hull": hull["shelf"].scaled(self.w_static_hull),
+                    "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
+                    "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
         swept = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
-                                    shelf_only=True, spacing=cfg.sweep_spacing,
-                                    press_z=press_z)
+                                    shelf_only=True, spacing=cfg.sweep_spacing)
         on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
         match = costs.match(u, self.q_ref[t + 1])
         mvel = costs.match_velocity(u, q, self.q_ref[t + 1], self.q_ref[t])
@@ -503,8 +413,6 @@ class KinematicObjective:
                "match": match.pulled(on_u).scaled(cfg.w_match),
                "match_vel": _reorder(mvel).scaled(cfg.w_match_vel),
                "speed": speed_limit(q, u, self._max_step).scaled(cfg.w_speed)}
-        if press_z is not None:
-            out["press"] = swept["press"].scaled(cfg.w_press)
         return out
 
     def terminal(self, q: np.ndarray) -> dict[str, Term]:

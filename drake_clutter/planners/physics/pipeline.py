@@ -169,8 +169,7 @@ def preprocess(context: PlanningContext, q_init: np.ndarray, deadline: float | N
     objective = KinematicObjective(
         geometry, config.physics, "pre", config.baseline.d_safe, scene.target,
         p_pregrasp=geometry.tool(q_init[-1])[0], w_static_hull=config.baseline.w_static_hull,
-        w_vel=(config.baseline.w_vel if config.physics.pre_w_vel is None
-               else config.physics.pre_w_vel))
+        w_vel=config.baseline.w_vel)
     keep = config.physics.pre_keep_pregrasp
     bounds = knot_bounds(q_init, last_knot=keep, gripper=keep)
     result = ilqr.solve(KinematicArm(), objective, q_init[0], q_init[1:],

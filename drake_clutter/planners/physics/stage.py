@@ -129,16 +129,12 @@ class HoldTail:
     function of the last state alone, V(z_T) = sum_k c(y_k), y_0 = x_T, y_(k+1) = phi(y_k,
     q^Delta); its expansion enters the terminal vx, vxx through the chain of the tail's
     Jacobians, Gauss-Newton as iLQR treats its knots (its box blocks capped like the stage's).
-    The tail's last state is the settled one the judge grades: the box-fate terms
-    (`PhysicsObjective.settled_terms`) are priced there once. ``ilqr.Cost`` protocol over the
-    augmented state z = [x, q^(t-1)] of `AugmentedPhi`."""
+    ``ilqr.Cost`` protocol over the augmented state z = [x, q^(t-1)] of `AugmentedPhi`."""
 
     def __init__(self, objective: PhysicsObjective, dynamics: PhiDynamics, knots: int,
-                 max_spectral_radius: float = float("inf"), stride: int | None = None,
-                 cap_per_box: bool = False):
+                 max_spectral_radius: float = float("inf"), cap_per_box: bool = False):
         self.objective, self.dynamics, self.knots = objective, dynamics, knots
         self.max_spectral_radius, self.cap_per_box = max_spectral_radius, cap_per_box
-        self.stride = stride  # the tail's derivative stride (None: phi's)
         self.nx, self.ndx = dynamics.layout.nx, dynamics.layout.ndx
 
     def tail(self, z_last: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -153,13 +149,8 @@ class HoldTail:
         terms.pop("static", None)
         return terms
 
-    def _settled_terms(self, y: np.ndarray, hold: np.ndarray) -> dict:
-        """Weighted box-fate terms (over dz) on the tail's last state y: the settled state."""
-        return self.objective.settled_terms(np.concatenate([y, hold]))
-
     def terms(self, zs: np.ndarray, us: np.ndarray) -> dict[str, float]:
-        """The objective's terms with the tail's added to c_motion, c_upright, c_force, and
-        the box-fate terms of its last state (`PhysicsObjective.settled_terms`)."""
+        """The objective's terms with the tail's added to c_motion, c_upright and c_force."""
         out = self.objective.terms(zs, us)
         ys, hold, holds = self.tail(zs[-1])
         if not np.all(np.isfinite(ys)):
@@ -167,8 +158,6 @@ class HoldTail:
         for y in ys[1:]:
             for name, term in self._knot_terms(y, hold).items():
                 out[name] = out.get(name, 0.0) + term.value
-        for name, term in self._settled_terms(ys[-1], hold).items():
-            out[name] = term.value
         if self.objective.forces is not None:
             for name, value in self.objective.phi_force_terms(ys[:-1], holds).items():
                 out[name] = out.get(name, 0.0) + value
@@ -180,7 +169,7 @@ class HoldTail:
         ys, hold, holds = self.tail(zs[-1])
         if not np.all(np.isfinite(ys)):
             return exp
-        A, B = map(np.nan_to_num, self.dynamics.linearize_tangent(ys, holds, self.stride))
+        A, B = map(np.nan_to_num, self.dynamics.linearize_tangent(ys, holds))
         ndx = self.ndx
         A[:, :, :ARM_DIM] += B  # the hold is x_T's arm: du = dx_arm
         cap_spectral_radius(A, self.max_spectral_radius, self.cap_per_box)
@@ -190,7 +179,7 @@ class HoldTail:
         forces = self.objective.forces is not None
         if forces:
             f, Fx, Fu = map(np.nan_to_num,
-                            self.dynamics.linearize_forces(ys, holds, self.stride))
+                            self.dynamics.linearize_forces(ys, holds))
             _, g, d = self.objective.force_cost(f)
         for k in range(self.knots):
             if forces:
@@ -199,10 +188,7 @@ class HoldTail:
                 exp.vxx[:ndx, :ndx] += G.T @ (d[k][:, None] * G)
             J = A[k] @ J
             P = np.vstack([J, hold_rows])  # d z_k / d x_T, z_k = [y_k, hold]
-            terms = list(self._knot_terms(ys[k + 1], hold).values())
-            if k == self.knots - 1:
-                terms += self._settled_terms(ys[k + 1], hold).values()
-            for term in terms:
+            for term in self._knot_terms(ys[k + 1], hold).values():
                 exp.vx[:ndx] += P.T @ term.gradient
                 exp.vxx[:ndx, :ndx] += P.T @ term.hessian @ P
         return exp
@@ -310,6 +296,6 @@ def stage_problem(context: PlanningContext, q: np.ndarray, variant: str,
                                  cfg.hold_knots, per_box)
         if cfg.hold_knots > 0:
             objective = HoldTail(objective, dynamics, cfg.hold_knots, cfg.max_spectral_radius,
-                                 cfg.hold_derivative_stride, per_box)
+                                 per_box)
         yield StageProblem(dynamics, augmented, objective, np.concatenate([x0, q[0]]), report,
                            held)

@@ -174,27 +174,3 @@ def test_upright_tilt_hessian_is_curved_at_rest_and_majorizes_the_angle():
         assert model >= actual - 1e-6
 
 
-def test_off_board_is_zero_on_the_board_saturates_off_it_and_majorizes():
-    """c_settled_fall: 0 for a centre over the board, 1/2 at ``scale`` outside (past an edge
-    or below the top), towards 1 far below (phi has no floor); its gradient is the numerical
-    one and its quadratic model lies above it along the axes where the box is outside (a
-    step it predicts to lower it does)."""
-    centre, half, top, scale = np.array([0.9, 0.0]), np.array([0.2, 0.4]), 0.8, 0.02
-
-    def fall(p):
-        return costs.off_board(p, centre, half, top, scale)
-
-    on_board = fall(np.array([0.95, 0.1, 0.85]))
-    assert on_board.value == 0.0 and not on_board.gradient.any() and not on_board.hessian.any()
-    assert fall(np.array([0.9, 0.4 + scale, 0.85])).value == pytest.approx(0.5)
-    assert fall(np.array([0.9, 0.0, top - scale])).value == pytest.approx(0.5)
-    assert fall(np.array([1.2, 0.1, top - 30.0])).value > 0.999  # fell for seconds
-    for p in (np.array([1.13, -0.43, 0.79]), np.array([0.6, 0.45, 0.7]),
-              np.array([0.9, 0.0, 0.77])):
-        term = fall(p)
-        _check(fall, p, hessian_exact=False)
-        outside = np.diag(term.hessian) > 0  # the model's axes (inside: flat, by design)
-        assert outside.any()
-        for step in RNG.standard_normal((50, 3)) * 0.03 * outside:
-            model = term.value + term.gradient @ step + 0.5 * step @ term.hessian @ step
-            assert fall(p + step).value <= model + 1e-12

@@ -19,17 +19,14 @@ from drake_clutter.experiments.specs import load_spec
 from drake_clutter.phi.dynamics import initial_state
 from drake_clutter.phi.state import (
     StateLayout,
-    box_state_to_pose,
     pose_to_box_state,
     scene_box_states,
 )
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.geometry import SHELF, ArmGeometry, path_depths, path_press, pressing
+from drake_clutter.planners.geometry import SHELF, ArmGeometry, path_depths, path_press
 from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective
 from drake_clutter.planners.physics.penetration import (
-    deep_penetration_term,
-    press_term,
     segment_penetration,
 )
 from drake_clutter.scene import scenes
@@ -115,65 +112,6 @@ def test_shelf_contacts_are_labelled(geometry):
     q = Q_PREGRASP
     found = geometry.contacts(q, None, 1.0, "shelf")
     assert found and all(c.obstacle == SHELF and c.d_dbox is None for c in found)
-
-
-def test_deep_static_term_grows_beyond_its_depth_and_its_gradient_matches(geometry):
-    """The phi stages' steep c_static part: 0 down to static_depth, then 1/2 excess^2 per
-    pair, with the distance rows' gradient (checked against differences on an arm lowered
-    into the board)."""
-    q = Q_PREGRASP.copy()
-    depth = 0.003
-
-    def deepest(q_arm):
-        return min(c.distance for c in geometry.contacts(q_arm, None, 0.05, "shelf"))
-
-    while deepest(q) > -0.01:  # lower the shoulder until the arm is 1 cm in the board
-        q[1] += 0.005
-    contacts = geometry.contacts(q, None, 0.05, "shelf")
-    term = deep_penetration_term(contacts, depth, 8)
-    excess = [-c.distance - depth for c in contacts if -c.distance > depth]
-    assert term.value == pytest.approx(0.5 * sum(e * e for e in excess)) and term.value > 0
-    numeric = _numeric_gradient(
-        lambda v: deep_penetration_term(geometry.contacts(v, None, 0.05, "shelf"), depth,
-                                        8).value, q)
-    np.testing.assert_allclose(term.gradient, numeric, atol=1e-6)
-    assert np.all(np.linalg.eigvalsh(term.hessian) > -1e-12)
-    assert deep_penetration_term(contacts, 0.05, 8).value == 0.0  # nothing that deep
-
-
-def test_press_term_picks_the_arm_over_a_box_top_and_its_gradient_matches(geometry):
-    """c_press: a wide box put under the gripper, its top 5 mm above the tool frame's origin,
-    is touched from above (normals up) and priced; the same box beside the gripper, its side
-    touched, is not; the gradient over the arm matches differences."""
-    q = Q_PREGRASP
-    p_G = geometry.tool(q)[0]
-    box = geometry.scene.box("large_stable")
-    top = p_G + [0.0, 0.0, 0.005 - box.size[2] / 2]
-    under = {box.name: RigidTransform(top)}
-    found = [c for c in geometry.contacts(q, under, 0.02, "boxes") if c.obstacle == box.name]
-    down = pressing(found, 0.5)
-    assert down and all(c.normal[2] > 0.5 for c in down)
-    term = press_term(found, 0.02, 8, 0.5)
-    assert term.value > 0.0
-    numeric = _numeric_gradient(
-        lambda v: press_term(geometry.contacts(v, under, 0.02, "boxes"), 0.02, 8, 0.5).value,
-        q)
-    np.testing.assert_allclose(term.gradient, numeric, atol=1e-4)
-    beside = {box.name: RigidTransform(p_G + [0.0, box.size[1] / 2 + 0.03, 0.0])}
-    side = geometry.contacts(q, beside, 0.02, "boxes")
-    assert [c for c in side if c.obstacle == box.name]  # touched, from the side
-    assert press_term([c for c in side if c.obstacle == box.name], 0.02, 8, 0.5).value == 0.0
-    geometry.set_state(q, under)
-    deepest = max(-c.distance for c in pressing(geometry.contacts(q, None, 0.0, "boxes"), 0.5))
-    assert path_press(geometry, np.array([q, q]), 2, 0.5) == pytest.approx(deepest)
-    # The segment's c_press reads the boxes whether or not it prices c_dynamic ("boxes").
-    both = segment_penetration(geometry, q, q, 2, 0.02, press_z=0.5)
-    lean = segment_penetration(geometry, q, q, 2, 0.02, shelf_only=True, press_z=0.5)
-    assert "boxes" not in lean and lean["press"].value == both["press"].value > 0.0
-    assert lean["shelf"].value == both["shelf"].value
-    geometry.set_state(q, beside)
-    assert path_press(geometry, np.array([q, q]), 2, 0.5) == 0.0
-    geometry.set_state(q, {box.name: geometry.rest_pose(box.name)})
 
 
 def test_path_depths_splits_a_box_top_from_its_side(geometry):
@@ -283,59 +221,6 @@ def test_state_terms_gradients_match_differences(physics_problem, terminal):
         assert np.all(eig > -1e-6 * scale), name  # Gauss-Newton: positive semi-definite
 
 
-def test_press_reads_phis_poses_or_the_start_poses(scene, geometry):
-    """c_press in the phi stages: a box phi has put under the gripper (its top 5 mm above G)
-    is pressed with "phi" poses, its gradient over the arm the numerical one; with "start"
-    poses the same state reads the box where it started, beside the arm: nothing."""
-    layout = StateLayout(("large_stable",))
-    states = scene_box_states(scene)
-    x0 = initial_state(layout, Q_PREGRASP, states)
-    p_G = geometry.tool(Q_PREGRASP)[0]
-    top = p_G + [0.0, 0.0, 0.005 - scene.box("large_stable").size[2] / 2]
-    under = dict(states, large_stable=pose_to_box_state(RigidTransform(top)))
-    z = np.concatenate([initial_state(layout, Q_PREGRASP, under), Q_PREGRASP])
-    values = {}
-    for poses in ("phi", "start"):
-        cfg = replace(PhysicsConfig(), w_press=1e3, press_poses=poses)
-        objective = PhysicsObjective(geometry, layout, cfg, x0, "target", knot_time=0.2,
-                                     d_safe=0.02)
-        term = objective.state_terms(z, False)["press"]
-        values[poses] = term.value
-        if poses == "phi":
-            numeric = _numeric_gradient(
-                lambda v, o=objective: o.state_terms(np.r_[v, z[8:]], False)["press"].value,
-                z[:8])
-            np.testing.assert_allclose(term.gradient[:8], numeric,
-                                       atol=1e-4 * np.abs(numeric).max())
-    geometry.set_state(Q_PREGRASP, {"large_stable": geometry.rest_pose("large_stable")})
-    assert values["phi"] > 0.0 and values["start"] == 0.0
-
-
-def test_static_between_knots_with_its_steep_part_matches_differences(scene, geometry):
-    """The phi stages' c_static over the segment from q^(t-1) (z's tail) to q^t, with the
-    steep part: its gradient over both knots is the numerical one, and the steep part adds to
-    the linear one where the arm is 12 mm in the board."""
-    layout = StateLayout(("target",))
-    q_low = Q_PREGRASP.copy()
-    while min(c.distance for c in geometry.contacts(q_low, None, 0.05, "shelf")) > -0.012:
-        q_low[1] += 0.005
-    z = np.concatenate([initial_state(layout, q_low, scene_box_states(scene)), Q_PREGRASP])
-    config = PhysicsConfig(phi_static_substeps=4, w_static_deep=1e7)
-    objective = PhysicsObjective(geometry, layout, config, z[:layout.nx], "target", 0.2, 0.02)
-    term = objective.state_terms(z, False)["static"]
-    numeric = _numeric_gradient(
-        lambda d: objective.state_terms(_retract_z(layout, z, d), False)["static"].value,
-        np.zeros(objective.nz))
-    np.testing.assert_allclose(term.gradient, numeric, atol=1e-3 * np.abs(numeric).max())
-    assert np.abs(term.gradient[layout.ndx:]).max() > 0  # q^(t-1) matters too
-    knot_only = PhysicsObjective(geometry, layout, replace(config, phi_static_substeps=1),
-                                 z[:layout.nx], "target", 0.2, 0.02)
-    shallow = PhysicsConfig(phi_static_substeps=4)
-    plain = PhysicsObjective(geometry, layout, shallow, z[:layout.nx], "target", 0.2, 0.02)
-    assert term.value > plain.state_terms(z, False)["static"].value > 0  # the steep part
-    assert knot_only.state_terms(z, False)["static"].value > 0
-
-
 def test_smooth_state_hessians_match_differences(physics_problem):
     objective, layout, z = physics_problem
     for name in ("motion",):  # (upright's is Gauss-Newton: checked PSD above)
@@ -405,29 +290,6 @@ def test_phi_force_term_gradient_matches_differences(physics_problem, geometry):
     _check_force_expansion(objective, layout, zs, us, lambda f: float(np.sum(f ** 2)))
 
 
-def test_force_excess_term_gradient_matches_differences(physics_problem, geometry):
-    """c_force_excess = w/2 sum_t ||max(0, f_t - force_limit)||^2 (ours): its value, and its
-    expansion's gradient in (dz_t, du_t) equals the numerical one; its Gauss-Newton Hessian
-    is positive semi-definite and zero where no force exceeds the limit."""
-    config = PhysicsConfig(w_force=0.0, w_force_excess=5.0, force_limit=0.3)
-    objective, layout, zs, us = _force_problem(physics_problem, geometry, config)
-    z = zs[0]
-    f = np.array([objective.forces.step_forces(zs[t, :layout.nx], us[t]) for t in range(2)])
-    assert np.any(f > 0.3) and np.any(f < 0.3)  # some entries over the limit, some under
-    excess = np.maximum(0.0, f - 0.3)
-    terms = objective.terms(zs, us)
-    assert terms["force_excess"] == pytest.approx(2.5 * np.sum(excess ** 2))
-    assert terms["force"] == 0.0
-    H, base = _check_force_expansion(
-        objective, layout, zs, us, lambda f: float(2.5 * np.sum(np.maximum(0.0, f - 0.3) ** 2)))
-    for h in H:
-        assert np.linalg.eigvalsh(0.5 * (h + h.T)).min() > -1e-9
-    under = PhysicsConfig(w_force=0.0, w_force_excess=5.0, force_limit=1.0)  # tanh < 1
-    quiet = PhysicsObjective(geometry, layout, under, z[:layout.nx], "target", knot_time=0.2,
-                             d_safe=0.02, forces=_SmoothForces(layout.ndx))
-    np.testing.assert_allclose(quiet.quadratize(zs, us).luu, base.luu, atol=1e-12)
-
-
 def test_acc_term_matches_differences(physics_problem):
     objective, layout, z = physics_problem
     u = z[:8] + 0.05
@@ -439,31 +301,6 @@ def test_acc_term_matches_differences(physics_problem):
 
     numeric = _numeric_gradient(value, np.zeros(n + 8))
     np.testing.assert_allclose(term.gradient, numeric, rtol=1e-5, atol=1e-3)
-
-
-def test_step_smoothing_adds_curvature_to_zigzags_only(physics_problem):
-    problem, layout, z = physics_problem
-    base, smoothing = (PhysicsObjective(problem.geometry, layout,
-                                        replace(problem.config, step_smoothing=w),
-                                        z[:layout.nx], "target", knot_time=0.2, d_safe=0.02)
-                       for w in (0.0, 2.0))
-    zs, us = np.array([z, z, z]), np.array([z[:8], z[:8] + 0.01])
-    plain, smooth = base.quadratize(zs, us), smoothing.quadratize(zs, us)
-    assert smoothing.terms(zs, us) == base.terms(zs, us)  # the objective is unchanged
-    for name in ("lx", "lu", "vx", "vxx"):
-        np.testing.assert_array_equal(getattr(smooth, name), getattr(plain, name))
-    n = base.nz
-    extra = np.zeros((n + 8, n + 8))
-    extra[:n, :n], extra[n:, n:] = (smooth.lxx - plain.lxx)[1], (smooth.luu - plain.luu)[1]
-    extra[n:, :n] = (smooth.lux - plain.lux)[1]
-    extra[:n, n:] = extra[n:, :n].T
-    arm, prev, ctrl = np.arange(8), np.arange(base.ndx, n), np.arange(n, n + 8)
-    steady = np.zeros(n + 8)  # the same step at q^(t-1), q^t and q^(t+1): no curvature
-    steady[arm] = steady[prev] = steady[ctrl] = 1.0
-    zigzag = np.zeros(n + 8)  # q^t moved against its neighbours
-    zigzag[arm], zigzag[prev], zigzag[ctrl] = 1.0, -1.0, -1.0
-    assert steady @ extra @ steady == pytest.approx(0.0, abs=1e-9)
-    assert zigzag @ extra @ zigzag == pytest.approx(2.0 * 8 * 16 / 0.2**2)
 
 
 def test_speed_limit_term_matches_differences():
@@ -702,23 +539,6 @@ def test_pre_and_post_processing_keep_the_pregrasp_and_the_open_gripper(name):
         np.testing.assert_array_equal(q[:, -1], q0[:, -1])
 
 
-def test_pre_w_vel_weights_the_preprocessings_c_vel(scene, geometry, fig5_candidate):
-    """physics.pre_w_vel replaces the baseline's w_vel in Sec. V-A only: a heavier c_vel leaves
-    a smoother path (smaller knot-to-knot second differences)."""
-    from drake_clutter.common.config import load_config
-    from drake_clutter.planners.physics.pipeline import preprocess
-
-    q0 = fig5_candidate.trajectory.q
-    runs = {w: preprocess(PlanningContext(scene, load_config(None, [f"physics.pre_w_vel={w}"])),
-                          q0) for w in (1.0, 100.0)}
-    kink = {w: np.abs(np.diff(q[:, :7], 2, axis=0)).max() for w, (q, _) in runs.items()}
-    assert kink[100.0] < 0.5 * kink[1.0]
-    assert runs[1.0][1].term_history[0]["vel"] * 100 == pytest.approx(
-        runs[100.0][1].term_history[0]["vel"])  # the same start, its c_vel weighted 100x
-    default, _ = preprocess(PlanningContext(scene, load_config(None, [])), q0)
-    np.testing.assert_array_equal(default, runs[1.0][0])  # None = the baseline's w_vel (1)
-
-
 @pytest.mark.parametrize("controls", ["spline", "knots"])
 def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate, controls):
     from drake_clutter.common.config import load_config
@@ -939,10 +759,6 @@ def test_bad_physics_config_is_a_config_error(scene):
         plan_physics(scene, load_config(None, ["physics.hull_substeps=0"]), [])
     with pytest.raises(ConfigError, match="physics.step_limit_fraction"):
         plan_physics(scene, load_config(None, ["physics.step_limit_fraction=0"]), [])
-    with pytest.raises(ConfigError, match="physics.hold_derivative_stride"):
-        plan_physics(scene, load_config(None, ["physics.hold_derivative_stride=0"]), [])
-    with pytest.raises(ConfigError, match="physics.settled_fall_scale"):
-        plan_physics(scene, load_config(None, ["physics.settled_fall_scale=0"]), [])
     with pytest.raises(ConfigError, match="physics.accept_ratio"):
         plan_physics(scene, load_config(None, ["physics.accept_ratio=1"]), [])
     with pytest.raises(ConfigError, match="physics.control_points"):
@@ -1125,43 +941,6 @@ def test_hold_tail_pays_for_a_fall_after_delta_and_its_gradient_matches_differen
     # measured: |numeric| 3.2e3, |error| 2.7 (upright 5.4 held vs 0.09 at Delta)
     assert np.linalg.norm(numeric) > 1.0
     assert np.linalg.norm(vx - numeric) < 0.05 * np.linalg.norm(numeric), (vx, numeric)
-
-
-def test_settled_terms_price_the_tail_end_once_as_the_judge_sees_it():
-    """The box-fate terms read the hold tail's last state, once however long the tail: the
-    domino tipped on the board after two held knots costs w_settled_upright x its tilt; fallen
-    after five it costs w_settled_fall (its tumbling tilt no longer counts); the tail's
-    gradient with them is the numerical one, with the box half off the board too."""
-    from drake_clutter.phi.derivatives import PhiDynamics
-    from drake_clutter.planners.physics.stage import HoldTail
-    from drake_clutter.scene.grading import off_the_board
-
-    fig7, spec, zs, us = _toppling_domino()
-    config = PhysicsConfig(w_settled_upright=6.0, w_settled_fall=30.0)
-    with PhiDynamics(spec) as dynamics:
-        objective = PhysicsObjective(ArmGeometry(fig7, "capsules"), spec.layout, config,
-                                     zs[0, :spec.layout.nx], "target", knot_time=0.2,
-                                     d_safe=0.02, forces=dynamics)
-        ys, _, _ = HoldTail(objective, dynamics, knots=5).tail(zs[-1])
-        boxes = [spec.layout.boxes(y)[0] for y in ys]
-        fallen = off_the_board(fig7, np.array([b[4:7] for b in boxes]))
-        tilts = [np.arccos(np.clip(box_state_to_pose(b).rotation().matrix()[2, 2], -1, 1))
-                 for b in boxes]
-        # measured (edge-sphere boxes): on the board at 0.16 and 0.46 rad after one and two
-        # knots, past the edge after three
-        assert not fallen[2] and tilts[2] > 0.3 and fallen[3] and fallen[5]
-        two = HoldTail(objective, dynamics, knots=2).terms(zs, us)
-        smoothed = np.hypot(tilts[2], costs.ANGLE_SMOOTHING) - costs.ANGLE_SMOOTHING
-        assert two["settled_upright"] == pytest.approx(6.0 * smoothed, rel=1e-6)
-        assert two["settled_fall"] == 0.0
-        five = HoldTail(objective, dynamics, knots=5).terms(zs, us)
-        assert five["settled_fall"] == pytest.approx(30.0, rel=1e-3)
-        assert five["settled_upright"] < 0.01
-        for knots in (3, 5):
-            tail = HoldTail(objective, dynamics, knots=knots)
-            vx, numeric = _tail_gradient(tail, objective, spec.layout, zs, us)
-            assert np.linalg.norm(vx - numeric) < 0.05 * np.linalg.norm(numeric), (knots, vx,
-                                                                                  numeric)
 
 
 def test_parallel_line_search_gives_the_serial_phi_stage(scene, fig5_candidate):

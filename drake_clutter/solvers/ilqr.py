@@ -21,28 +21,27 @@ e.g. rotation vectors for quaternion states) the linearisation and the expansion
 tangent space (A: ndx x ndx, B: ndx x nu, lx: ndx, ...), and the forward pass feeds back
 K (x (-) x_bar); without it the states are plain vectors and x - x_bar is used.
 
-Regularisation: Levenberg-Marquardt on Q_uu (``mu * I``), raised by ``reg_factor`` whenever
-Q_uu is not positive definite or the line search fails, lowered after every accepted step.
-Line search: step sizes 1, 1/2, 1/4, ... (with ``adaptive_step``: from twice the last
-accepted size); a step is accepted only if it lowers the objective, so the cost never increases
-across accepted iterations. For inexact derivatives (phi's finite differences in contact) two
-safeguards are optional: a trust region on the controls (``step_limit``: no control changes by
-more than its limit per forward pass, feedback included) and an open-loop retry of the line
-search (``open_loop_fallback``: K = 0, so errors in A are not fed back), and ``cost_floor``:
-a model that predicts a decrease below a known lower bound of the objective is rejected
-without a rollout (mu is raised). Options that make the model describe the step taken:
-``box_qp`` (each knot's step minimises the model within the bounds, `box_qp_solve`),
-``trust_bounds`` (the trust region is a bound of that QP, not only a clip after the policy),
-``trust_adapt`` (its radius follows the accepted steps' actual / predicted decrease),
+Regularisation: Levenberg-Marquardt on Q_uu (``mu * I``), raised by ``reg_factor`` whenever Q_uu is
+not positive definite or the line search fails, lowered after every accepted step. Line search: step
+sizes 1, 1/2, 1/4, ... (with ``adaptive_step``: from twice the last accepted size); a step is
+accepted only if it lowers the objective, so the cost never increases across accepted iterations.
+For inexact derivatives (phi's finite differences in contact) two safeguards are optional: a trust
+region on the controls (``step_limit``: no control changes by more than its limit per forward pass,
+feedback included) and an open-loop retry of the line search (``open_loop_fallback``: K = 0, so
+errors in A are not fed back), and ``cost_floor``: a model that predicts a decrease below a known
+lower bound of the objective is rejected without a rollout (mu is raised). Options that make the
+model describe the step taken: ``box_qp`` (each knot's step minimises the model within the bounds,
+`box_qp_solve`), ``trust_bounds`` (the trust region is a bound of that QP, not only a clip after the
+policy), ``trust_adapt`` (its radius follows the accepted steps' actual / predicted decrease),
 ``accept_ratio`` (a ratio test), ``reg_scale`` (mu diag(s^2) for controls in mixed units) and
-``feedback_mask`` (feed back only some state coordinates). ``ILQRResult.log``
-records every backward pass: regulariser, predicted and actual decrease, step size. Stop rules:
-the iteration cap, a relative decrease below ``tolerance``, the regulariser exceeding
-``reg_max``, ``max_failed_searches`` failed line searches in one iteration, or an accepted
-step that moved no control by ``min_step`` or more (on a chaotic rollout, a decrease from a
-step that small is noise to exploit, not progress). The loop that applies all of these is
-`descend`, shared with the spline solver (`spline.solve_spline`): a problem supplies the model,
-the proposed step and the line search.
+``feedback_mask`` (feed back only some state coordinates). ``ILQRResult.log`` records every backward
+pass: regulariser, predicted and actual decrease, step size. Stop rules: the iteration cap, a
+relative decrease below ``tolerance``, the regulariser exceeding ``reg_max``,
+``max_failed_searches`` failed line searches in one iteration, or an accepted step that moved no
+control by ``min_step`` or more (on a chaotic rollout, a decrease from a step that small is noise to
+exploit, not progress). The loop that applies all of these is `descent.descend`, shared with the
+spline solver (`spline.solve_spline`): a problem supplies the model, the proposed step and the line
+search.
 
 Parallel line search: dynamics that can run several forward passes at once (elsewhere: worker
 processes) say how many with ``parallel_passes`` (an int, > 1) and run them in
@@ -54,168 +53,34 @@ still accepts the first (largest) that lowers the objective, so the result is th
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from enum import StrEnum
-from typing import Protocol
 
 import numpy as np
 
+from drake_clutter.solvers.descent import descend
+from drake_clutter.solvers.problem import (
+    Cost,
+    Dynamics,
+    Expansion,
+    ILQRResult,
+    ILQRSettings,
+    StopReason,
+    past,
+    per_knot_bounds,
+    rollout,
+    subtract,
+    zero_nonfinite,
+)
 
-class Dynamics(Protocol):
-    """Discrete-time dynamics x_{t+1} = f_t(x_t, u_t)."""
-
-    def step(self, t: int, x: np.ndarray, u: np.ndarray) -> np.ndarray: ...
-
-    def linearize(self, xs: np.ndarray, us: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-@dataclass
-class Expansion:
-    """Second-order expansion of the objective about (xs, us).
-
-    Running terms per knot t = 0..T-1: ``lx`` (T, nx), ``lu`` (T, nu), ``lxx`` (T, nx, nx),
-    ``luu`` (T, nu, nu), ``lux`` (T, nu, nx); terminal terms at x_T: ``vx`` (nx,), ``vxx``
-    (nx, nx). Costs that couple knots (velocities, accelerations) must be written over an
-    augmented state that carries the previous controls.
-    """
-
-    lx: np.ndarray
-    lu: np.ndarray
-    lxx: np.ndarray
-    luu: np.ndarray
-    lux: np.ndarray
-    vx: np.ndarray
-    vxx: np.ndarray
+# The solver's face: its types (`problem`) are importable from here too.
+__all__ = ["Cost", "Dynamics", "Expansion", "ILQRResult", "ILQRSettings", "StopReason", "past",
+           "per_knot_bounds", "rollout", "subtract", "zero_nonfinite", "solve", "backward_pass",
+           "forward_pass", "box_qp_solve", "nearest_psd", "forward_passes_of"]
 
 
-class Cost(Protocol):
-    """The objective: named weighted terms, and their quadratic expansion."""
 
-    def terms(self, xs: np.ndarray, us: np.ndarray) -> dict[str, float]: ...
-
-    def quadratize(self, xs: np.ndarray, us: np.ndarray) -> Expansion: ...
-
-
-@dataclass(frozen=True)
-class ILQRSettings:
-    """Solver settings; the defaults follow Sec. V (30 iterations) where the paper sets one."""
-
-    max_iterations: int = 30  # Sec. V: iLQR capped at 30 iterations
-    tolerance: float = 1e-6  # relative objective decrease that counts as converged; ours
-    reg_init: float = 1e-6  # initial Levenberg-Marquardt term on Q_uu; ours
-    reg_min: float = 1e-9
-    reg_max: float = 1e10
-    reg_factor: float = 10.0
-    line_search_steps: int = 10  # step sizes 1, 1/2, ..., 2^-9
-    u_min: tuple | np.ndarray | None = None  # (nu,) for every knot, or (T, nu) per knot
-    u_max: tuple | np.ndarray | None = None
-    step_limit: tuple[float, ...] | None = None  # trust region: the largest change of each
-    # control per knot in one forward pass (|u - u_bar| <= step_limit, feedback included)
-    adaptive_step: bool = False  # start each line search at twice the last accepted step size
-    # (capped at 1) instead of 1: with inexact derivatives the full step keeps failing and
-    # every failed try is a rollout
-    cost_floor: float | None = None  # a known lower bound of the objective (0 for sums of
-    # non-negative terms): a backward pass predicting a decrease below it is not tried (no
-    # rollout), mu is raised instead - the model cannot be trusted that far
-    max_failed_searches: int | None = None  # stop ("line_search_failed") after this many
-    # failed line searches in one iteration instead of raising mu up to reg_max (each failed
-    # search is line_search_steps rollouts); None: no such limit
-    open_loop_fallback: bool = False  # when the closed-loop line search fails, try the same
-    # step sizes with K = 0 before raising the regulariser (for inexact A: K (x - x_bar)
-    # amplifies its errors)
-    feedback: bool = True  # the forward pass feeds back K (x - x_bar); False: open loop
-    # (K = 0) always, for dynamics whose state deviations are chaotic
-    feedback_mask: tuple[bool, ...] | None = None  # the (tangent) state coordinates the
-    # forward pass feeds back (None: all); the result's K keeps every column
-    min_step: float = 0.0  # stop ("small_step") after an accepted step that changed no
-    # control by more than this (its largest |u - u_bar|); 0: no such rule
-    box_qp: bool = False  # the backward pass solves each knot's box-constrained QP (bounds,
-    # and the trust region when ``trust_bounds``) by projected Newton (Tassa et al. 2014)
-    # instead of pinning only the controls already on a bound
-    trust_bounds: bool = False  # the trust region is a bound of the backward pass's QP (the
-    # predicted decrease then describes the step taken), not only a clip after the policy
-    trust_adapt: bool = False  # the trust region's radius adapts to the accepted step's
-    # actual / predicted decrease (x2 above 0.75 when the step reached the region's edge, x1/4
-    # below 0.25), between 1/64 and 1 of step_limit; a failed line search quarters it and
-    # counts as failed (raising mu, for max_failed_searches) only at the smallest radius
-    accept_ratio: float = 0.0  # a step is accepted only if its actual decrease is at least
-    # this fraction of the model's at its step size (0: any decrease)
-    reg_scale: tuple[float, ...] | None = None  # per-control scale of the regulariser: mu
-    # diag(reg_scale^2) on Q_uu (controls in mixed units: rad, m); None: mu I
-    stall_fraction: float = 0.0  # stop ("stalled") after ``stall_iterations`` accepted steps
-    # in a row each lowered the objective by less than this fraction of the decrease since
-    # the start (the tail of a converging run buys little); 0: no such rule
-    stall_iterations: int = 2
-    deadline: float | None = None  # a time.perf_counter() value (s): no iteration starts that
     # the last one's duration says would end past it, no line search once it has passed
     # ("time_budget"); the result is the best path so far
 
-
-def past(deadline: float | None, ahead: float = 0.0) -> bool:
-    """True when ``deadline`` (a time.perf_counter() value, s) is set and will have passed
-    ``ahead`` seconds from now."""
-    return deadline is not None and time.perf_counter() + ahead >= deadline
-
-
-class StopReason(StrEnum):
-    """Why iLQR stopped (the value is what plan files and stores hold)."""
-
-    MAX_ITERATIONS = "max_iterations"  # the iteration cap
-    CONVERGED = "converged"  # relative improvement, or the predicted decrease, under tolerance
-    SMALL_STEP = "small_step"  # the accepted step moved the controls less than min_step
-    STALLED = "stalled"  # stall_iterations steps in a row each bought < stall_fraction
-    REGULARIZATION_LIMIT = "regularization_limit"  # mu passed reg_max without an accepted step
-    LINE_SEARCH_FAILED = "line_search_failed"  # max_failed_searches line searches failed
-    TIME_BUDGET = "time_budget"  # settings.deadline passed (the best path so far is kept)
-
-
-@dataclass
-class ILQRResult:
-    """Everything the solver produced: trajectory, policy, history, why it stopped, timings."""
-
-    xs: np.ndarray
-    us: np.ndarray
-    K: np.ndarray  # (T, nu, nx) feedback gains
-    k: np.ndarray  # (T, nu) feed-forward terms of the last backward pass
-    cost: float
-    cost_history: list[float]  # objective after each accepted iteration (index 0: the start)
-    term_history: list[dict[str, float]]  # per-term values, aligned with cost_history
-    iterations: int
-    stop_reason: StopReason
-    timings: dict[str, float] = field(default_factory=dict)  # s, summed over iterations
-    log: list[dict] = field(default_factory=list)  # one entry per backward pass: regulariser
-    # mu, the model's predicted decrease at the full step ("expected"), the accepted step
-    # size alpha (0: none), the actual decrease and the model's at alpha ("predicted", before
-    # any trust-region clip), whether the step was open loop, forward passes tried, and
-    # the non-finite derivative entries zeroed; "passes": forward passes run (more than
-    # "tries" when a parallel batch ran step sizes after the accepted one)
-
-    @property
-    def converged(self) -> bool:
-        """True when stopped by the tolerance rule."""
-        return self.stop_reason == StopReason.CONVERGED
-
-
-def rollout(dynamics: Dynamics, x0: np.ndarray, us: np.ndarray) -> np.ndarray:
-    """States x_0..x_T of applying ``us`` from ``x0``."""
-    xs = np.empty((len(us) + 1, len(x0)))
-    xs[0] = x0
-    for t, u in enumerate(us):
-        xs[t + 1] = dynamics.step(t, xs[t], u)
-    return xs
-
-
-def per_knot_bounds(settings: ILQRSettings,
-                    shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """The bounds as (T, nu) arrays (a (nu,) bound repeated at every knot)."""
-    lo = np.full(shape, -np.inf) if settings.u_min is None else np.asarray(settings.u_min, float)
-    hi = np.full(shape, np.inf) if settings.u_max is None else np.asarray(settings.u_max, float)
-    if lo.shape not in (shape, shape[1:]) or hi.shape not in (shape, shape[1:]):
-        raise ValueError("u_min/u_max must have one entry per control (or a row per knot)")
-    lo, hi = np.broadcast_to(lo, shape).copy(), np.broadcast_to(hi, shape).copy()
-    if np.any(lo > hi):
-        raise ValueError("u_min must not exceed u_max")
-    return lo, hi
 
 
 def backward_pass(A, B, exp: Expansion, mu: float, us: np.ndarray | None = None,
@@ -341,10 +206,6 @@ def _chol_solve(chol: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     return np.linalg.solve(chol.T, y)
 
 
-def subtract(x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
-    """x_a - x_b: the state difference of plain vector states."""
-    return x_a - x_b
-
 
 def forward_pass(dynamics: Dynamics, xs, us, k, K, alpha: float, lo, hi, difference=None,
                  limit: np.ndarray | None = None):
@@ -387,108 +248,6 @@ def solve(dynamics: Dynamics, cost: Cost, x0: np.ndarray, us_init: np.ndarray,
                       iterations=iteration, stop_reason=stop_reason, timings=problem.timings,
                       log=log)
 
-
-class DescentProblem(Protocol):
-    """What `descend` asks of a problem: its current objective (``total``, ``terms``), a local
-    model about its current path, a step proposed for a regulariser and a trust region, and a
-    line search along it that moves the path when it lowers the objective."""
-
-    open_loop: bool  # whether a step is rolled out without feedback (the log's entry)
-    total: float
-    terms: dict
-
-    def model(self) -> int:
-        """Builds the local model about the current path; returns the non-finite derivative
-        entries it zeroed."""
-
-    def propose(self, mu: float, limit: np.ndarray | None) -> tuple[float, float] | None:
-        """The model's step for regulariser ``mu`` within the trust region ``limit`` (None:
-        none): its predicted decrease as (d1, d2) (first- and second-order parts, negative
-        for a decrease), or None when the regularised model has no minimum."""
-
-    def search(self, entry: dict, alpha0: float, model: tuple[float, float],
-               limit: np.ndarray | None) -> bool:
-        """Rolls out the proposed step from size ``alpha0`` down and moves to the first that
-        lowers the objective enough, recording it in ``entry``; False when none does."""
-
-
-def descend(problem: DescentProblem, settings: ILQRSettings, base: np.ndarray | None,
-            history: list[float], term_history: list[dict], log: list[dict]
-            ) -> tuple[StopReason, int]:
-    """The regularised descent loop both solvers share (module docstring): per iteration one
-    model, then steps proposed with the regulariser raised until a line search succeeds or a
-    stop rule fires; the trust region's radius (a fraction of ``base``, the step limit)
-    adapted; the deadline, the cost floor and the stop rules applied. Appends every accepted
-    objective to ``history`` / ``term_history`` and every proposal to ``log``; returns the stop
-    reason and the iterations taken."""
-    mu, radius, alpha0 = settings.reg_init, 1.0, 1.0
-    stop_reason, iteration = StopReason.MAX_ITERATIONS, 0
-    last = 0.0  # the last iteration's wall time (s), the next one's forecast
-    while iteration < settings.max_iterations:
-        if past(settings.deadline, last):
-            stop_reason = StopReason.TIME_BUDGET
-            break
-        iteration += 1
-        begun = time.perf_counter()
-        nonfinite = problem.model()
-        accepted, failed = False, 0
-        while (mu <= settings.reg_max and not past(settings.deadline)
-               and (settings.max_failed_searches is None
-                    or failed < settings.max_failed_searches)):
-            limit = None if base is None else radius * base
-            proposed = problem.propose(mu, limit)
-            if proposed is None:
-                mu = max(mu * settings.reg_factor, settings.reg_min)
-                continue
-            d1, d2 = proposed
-            entry = {"mu": mu, "expected": -(d1 + d2), "alpha": 0.0, "actual": 0.0,
-                     "predicted": 0.0, "radius": radius, "open_loop": problem.open_loop,
-                     "tries": 0, "passes": 0, "nonfinite": nonfinite}
-            log.append(entry)
-            if -(d1 + d2) < settings.tolerance * max(abs(problem.total), 1e-12):
-                break  # the model predicts no worthwhile decrease: a stationary point
-            if (settings.cost_floor is not None
-                    and -(d1 + d2) > problem.total - settings.cost_floor):
-                mu = max(mu * settings.reg_factor, settings.reg_min)
-                continue  # predicted below the floor: raise mu without a rollout
-            if problem.search(entry, alpha0, (d1, d2), limit):
-                accepted = True
-                radius = adapted_radius(radius, entry, limit, settings)
-                break
-            if settings.trust_adapt and base is not None and radius > TRUST_MIN:
-                # a smaller region before a larger mu; not counted as a failed search
-                radius = max(radius / 4.0, TRUST_MIN)
-                continue
-            failed += 1
-            mu = max(mu * settings.reg_factor, settings.reg_min)
-        if not accepted:
-            stop_reason = stop_without_step(mu, failed, settings)
-            iteration -= 1
-            break
-        last = time.perf_counter() - begun
-        if settings.adaptive_step:
-            alpha0 = min(1.0, 2.0 * entry["alpha"])
-        mu = max(mu / settings.reg_factor, settings.reg_min)
-        improvement = (history[-1] - problem.total) / max(abs(history[-1]), 1e-12)
-        history.append(problem.total)
-        term_history.append(problem.terms)
-        stop = stop_after_step(improvement, entry, history, settings)
-        if stop is not None:
-            stop_reason = stop
-            break
-    return stop_reason, iteration
-
-
-def stop_after_step(improvement: float, entry: dict, history: list[float],
-                    settings: ILQRSettings) -> StopReason | None:
-    """The stop rules after an accepted step (tolerance, min_step, stall), or None."""
-    if improvement < settings.tolerance:
-        return StopReason.CONVERGED
-    if entry["step"] < settings.min_step:
-        return StopReason.SMALL_STEP
-    if stalled(history, settings):
-        return StopReason.STALLED
-    return None
 
 
 class _Knots:
@@ -558,59 +317,6 @@ class _Knots:
         self.xs, self.us, self.terms, self.total = step
         return True
 
-
-def stop_without_step(mu: float, failed: int, settings: ILQRSettings) -> StopReason:
-    """Why the solver stops when an iteration accepted no step: the regulariser past
-    reg_max, max_failed_searches failed line searches, the deadline, or else a model
-    predicting no worthwhile decrease (converged)."""
-    if past(settings.deadline):
-        return StopReason.TIME_BUDGET
-    if mu > settings.reg_max:
-        return StopReason.REGULARIZATION_LIMIT
-    if failed and failed == settings.max_failed_searches:
-        return StopReason.LINE_SEARCH_FAILED
-    return StopReason.CONVERGED
-
-
-def stalled(history: list[float], settings: ILQRSettings) -> bool:
-    """True when the last ``stall_iterations`` accepted steps each lowered the objective by
-    less than ``stall_fraction`` of the decrease from history[0] to their own value."""
-    n = settings.stall_iterations
-    if settings.stall_fraction <= 0 or len(history) <= n:
-        return False
-    h = np.asarray(history, float)
-    steps = h[-n - 1:-1] - h[-n:]
-    return bool(np.all(steps < settings.stall_fraction * (h[0] - h[-n:])))
-
-
-TRUST_MIN = 1.0 / 64.0  # the adaptive trust region's smallest radius (of step_limit)
-
-
-def adapted_radius(radius: float, entry: dict, limit, settings: ILQRSettings) -> float:
-    """The trust region's next radius after an accepted step (``trust_adapt``): doubled (up
-    to 1) when the model was good (actual / predicted > 0.75) and the step reached the
-    region's edge, quartered (down to TRUST_MIN) when it was poor (< 0.25)."""
-    if not settings.trust_adapt or limit is None or entry["predicted"] <= 0.0:
-        return radius
-    ratio = entry["actual"] / entry["predicted"]
-    if ratio < 0.25:
-        return max(radius / 4.0, TRUST_MIN)
-    if ratio > 0.75 and entry["step_ratio"] >= 0.99:
-        return min(2.0 * radius, 1.0)
-    return radius
-
-
-def zero_nonfinite(*arrays: np.ndarray) -> int:
-    """Sets the non-finite entries of the derivative arrays to 0 in place (a failed
-    finite-difference evaluation: no known effect), returning how many there were; without
-    this a single NaN makes every Cholesky factorisation fail up to ``reg_max``."""
-    count = 0
-    for a in arrays:
-        bad = ~np.isfinite(a)
-        if bad.any():
-            count += int(bad.sum())
-            a[bad] = 0.0
-    return count
 
 
 def _line_search(dynamics, cost, xs, us, k, K, total, lo, hi, settings, difference=None,

@@ -11,9 +11,11 @@ The rooms, in the order data flows and imports point (each may import only those
 - ``worlds``: the Drake planning and dynamics worlds, the Bullet world;
 - ``solvers``: iLQR (pure NumPy);
 - ``phi``: the smooth-contact dynamics and its derivatives (Sec. V);
-- ``planners``: the baseline (Sec. IV), the physics planner (Sec. V), the registry;
+- ``planners``: the baseline (Sec. IV), the physics planner (Sec. V), the push planner, the
+  parts they share, the registry;
 - ``evaluation``: the judge (Sec. III), which never sees a planner;
 - ``experiments``: specs, tiers, store, executors, reports (Sec. VI-B);
-- ``viz``: Meshcat views and replays, cost curves;
+- ``viz``: Meshcat views and replays, cost curves; ``conformance``: phi's contact conformance
+  suite against MuJoCo and Bullet;
 - ``cli``: the ``drake-clutter`` command; ``testing``: helpers shared by tests and benchmarks.
 """

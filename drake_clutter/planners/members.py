@@ -4,8 +4,8 @@ read over K perturbed scenes instead of one.
 Member 0 is the scene as it is; member k >= 1 is the scene with every box moved and its mass
 and friction scaled (`scene.perturbation.perturb_boxes` over the ``ensemble`` ranges, seeded
 with ``[ensemble.seed, k]``: the planner's seeds, never the judge's); member 1 pairs friction as
-Bullet does when ``ensemble.bullet_friction_member`` is set. The judge in phi and Sec. V's
-ensemble score both roll out in these worlds.
+Bullet does when ``ensemble.bullet_friction_member`` is set. The judge in phi rolls out
+in these worlds.
 """
 
 from __future__ import annotations

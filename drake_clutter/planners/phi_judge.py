@@ -18,10 +18,11 @@ judge's), and in each member:
   ``evaluation.intrusion_tolerance`` (`grading.box_overlap`);
 * **partial success** - an obstacle tipped past ``evaluation.max_tilt``; else **success**;
 
-with the judge's precedence (`grading.classify`). Each member's `PhiFindings` (the jam and
-the press are always measured) are kept beside its reading, so another reading of the same
-rollouts needs no new rollout (`PhiVerdict.from_findings`). Over the K members: P(success)
-and the expected grade class, as the robust judge summarises its replays.
+with the judge's precedence (`grading.classify`). Each member's `PhiFindings` (what the rollout
+showed, the press on a box's top recorded beside the jam) are kept beside its reading, so the
+same rollouts can be read again, e.g. under another ``dynamics.jam_depth``
+(`PhiVerdict.from_findings`). Over the K members: P(success) and the expected grade class, as the
+robust judge summarises its replays.
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 The paper scores a scene by its best approach angle, which only the Bullet judge can pick. A
 robot executes one plan, so each planner ranks its own candidates by what it knows: the
 baseline by its kinematic cost at the end of the path optimisation (Sec. IV: w_static_hull x
-c_static_hull + w_vel x c_vel), the physics planner by the objective in phi (or the ensemble
-score) of the path it chose (``details["select"]``; for plans made before that choice
+c_static_hull + w_vel x c_vel), the physics planner by the objective in phi of the path it
+chose (``details["select"]``; for plans made before that choice
 existed, its last phi stage's final objective; with neither - no phi stage and no choice in
 phi - the baseline's score of the path it started from, ``details["start_score"]``), the
 push planner by its chosen path's P(success) in phi (`_push_score`). Lower is better.

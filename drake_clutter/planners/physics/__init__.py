@@ -1,6 +1,6 @@
 """The physics planner of Sec. V: the pipeline (pre-processing, sphere and full phi stages,
-post-processing), a phi stage as an iLQR problem, its objectives, the arm's proxy geometry,
-and Table I's cost terms on arrays.
+post-processing), the start's grasp height, a phi stage as an iLQR problem, its objectives and
+Table I's cost terms on arrays.
 
 May import: as ``planners``.
 """

@@ -1,4 +1,4 @@
-"""Fixtures the physics planner's tests share: fig5 and its baseline path at alpha 0.3."""
+"""Fixtures the planners' tests share: fig5 and its baseline path at alpha 0.3."""
 
 from __future__ import annotations
 

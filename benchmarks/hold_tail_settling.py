@@ -9,7 +9,7 @@ tier's 4-9), plans the baseline candidate, builds the full phi stage's problem a
 (`stage.stage_problem`: pruned phi, boxes settled under the arm at the start) and rolls the
 path out followed by ``--knots`` knots of the held arm (default 20: 4 s at 0.2 s knots).
 Prints per plan: the first tail knot after which every kept box stays quiet (|v| + 0.1 m x |w|
-under ``dynamics.quiet_speed``) or has fallen (its centre 0.3 m below its start: phi has no
+under ``QUIET_SPEED``) or has fallen (its centre 0.3 m below its start: phi has no
 floor, so a fallen box never settles; "-" if never), the largest tilt (rad) and the boxes fallen
 at the end of the configured hold tail (``physics.hold_knots``) and at the end of the long
 tail, and the boxes whose tilt crosses the judge's tipping threshold (``evaluation.max_tilt``)
@@ -48,6 +48,7 @@ def _tilts_and_drops(layout, x, x0) -> tuple[np.ndarray, np.ndarray]:
     return np.array(tilts), np.array(drops)
 
 
+QUIET_SPEED = 0.01  # m/s: a box whose |v| + 0.1 m x |w| is below this has settled
 FALLEN_DROP = 0.3  # m: a box centre this far below its start has left the board (phi has
 # no floor: such a box falls for ever and never settles)
 
@@ -80,7 +81,7 @@ def measure(name: str, angle: int, config, knots: int) -> dict:
         xs = dynamics.rollout(x0, q[1:])
         tail = dynamics.rollout(xs[-1], np.tile(q[-1], (knots, 1)))
     hold = config.physics.hold_knots
-    settled = _settled_knot(layout, tail, x0, config.dynamics.quiet_speed)
+    settled = _settled_knot(layout, tail, x0, QUIET_SPEED)
     tilt_hold, drop_hold = _tilts_and_drops(layout, tail[min(hold, knots)], x0)
     tilt_end, drop_end = _tilts_and_drops(layout, tail[-1], x0)
     threshold = config.evaluation.max_tilt
@@ -121,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USAGE
     hold = config.physics.hold_knots
     print(f"hold tail {hold} knots; rolled out {args.knots}; quiet below "
-          f"{config.dynamics.quiet_speed} m/s; tipping at {config.evaluation.max_tilt:.3f} rad")
+          f"{QUIET_SPEED} m/s; tipping at {config.evaluation.max_tilt:.3f} rad")
     print(f"{'scene':22} {'angle':>5} {'settled':>7} {'tilt@hold':>9} {'tilt@end':>8} "
           f"{'fallen@hold':>11} {'fallen@end':>10}  tipped after the hold")
     settled = []

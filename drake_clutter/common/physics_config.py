@@ -34,8 +34,6 @@ class DynamicsConfig:
     mujoco_impedance_max: float = bounded(0.95, ge=1e-4, lt=1.0)
     # penetration over which the impedance rises (MJCF solimp[2]), m; ours
     mujoco_impedance_width: float = bounded(0.0005, gt=0.0)
-    # how a box meets the shelf in the MuJoCo phi ("box"; "edges": edge spheres), choice; ours
-    mujoco_shelf_contact: Literal["box", "edges"] = "box"
     # MuJoCo phi's solver tolerance (MuJoCo's 1e-8 stops early: steps jump), unitless; ours
     mujoco_solver_tolerance: float = bounded(1e-14, ge=0.0)
     # MuJoCo phi's line-search tolerance (MuJoCo's default 0.01), unitless; ours
@@ -52,16 +50,10 @@ class DynamicsConfig:
     prune_margin: float = bounded(0.05, ge=0.0)
     # Jacobians A_t, B_t every k-th knot and the last, interpolated between (1: all), count; ours
     derivative_stride: int = bounded(3, ge=1)
-    # the stride skips only quiet knots (no arm-box contact, no box moving), flag; ours
-    stride_quiet_only: bool = False
-    # a box moves at a knot when |v| + 0.1 m x |w| at its end exceeds this, m/s; ours
-    quiet_speed: float = bounded(0.01, ge=0.0)
     # how phi's Jacobians are taken ("fd", "autodiff", "hybrid"), choice; ours
     derivative_method: Literal["fd", "autodiff", "hybrid"] = "hybrid"
     # colour groups at a knot from which "hybrid" takes AutoDiffXd, count; ours
     autodiff_min_groups: int = bounded(20, ge=1)
-    # contact approximation phi's Jacobians are taken with ("rollout", "sap"), choice; ours
-    linearize_approximation: Literal["rollout", "sap"] = "rollout"
     # parallel derivative workers (0 = serial, in the calling process), count; ours
     workers: int = bounded(2, ge=0)
     # SAP sub-steps of phi per knot (0.2 s knots / 10 = 20 ms), count; ours
@@ -228,12 +220,6 @@ class PhysicsConfig:
     max_spectral_radius: float = bounded(1.0, gt=0.0)
     # rows the cap scales ("box": each unstable box's own first; "block": every box's), choice; ours
     spectral_cap_scope: Literal["box", "block"] = "box"
-    # phi stages retry a failed line search open loop (K = 0), flag; ours
-    open_loop_fallback: bool = False
-    # phi stages' forward passes feed back K (x - x_bar), flag; ours
-    feedback: bool = True
-    # state the phi stages feed back ("all", or "arm": not the boxes' chaotic part), choice; ours
-    feedback_state: Literal["all", "arm"] = "all"
     # controls of the phi stages: every knot ("knots", Sec. V) or B-spline points, choice; ours
     controls: Literal["knots", "spline"] = "spline"
     # B-spline control points of "spline" controls (the baseline's, Sec. IV), count; ours

@@ -26,9 +26,6 @@ Brute force perturbs every column of [x, u] (ndx + nu + 1 phi evaluations per kn
    same; a group's column of the result is J times the sum of its unit columns either way.
 6. Stride. With ``derivative_stride`` k > 1 only every k-th knot (and the last) is
    differentiated; A and B are interpolated linearly (in tangent coordinates) between them.
-   With ``stride_quiet_only`` the knots where the arm touches a kept box or a kept box moves
-   (`active_knots`) are differentiated too: an arm-box contact lasts 1-2 knots, and
-   interpolating across it smears the push over knots where nothing touches.
 
 Jacobians live in tangent coordinates (`state.StateLayout`: rotations as rotation vectors
 in W); `PhiDynamics.linearize` maps them to state coordinates (quaternions) for a solver that
@@ -44,7 +41,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from drake_clutter.common.config import Config, DynamicsConfig, WorldConfig, check_config
+from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import (
     colour_groups,
@@ -69,7 +66,6 @@ class LinearizeStats:
     differentiated_knots: int = 0
     evaluations: list[int] = field(default_factory=list)  # phi evaluations per knot
     known_boxes: int = 0  # boxes-only component blocks reused from earlier knots
-    active_knots: int = 0  # knots with arm-box contact or a moving box (`active_knots`)
     autodiff_knots: int = 0  # knots differentiated by AutoDiffXd (their groups are seed
     # directions of one AutoDiffXd step, not phi evaluations)
     traced: int = 0  # knots whose nominal step had to be traced again
@@ -96,34 +92,14 @@ class _KnotWork:
     # block (differentiated in this call) it reuses
 
 
-def linearized_approximation(config: DynamicsConfig, world: WorldConfig) -> str:
-    """The contact approximation phi's Jacobians are taken with (see
-    ``DynamicsConfig.linearize_approximation``)."""
-    if config.linearize_approximation == "sap":
-        return "sap"
-    return world.contact_approximation
-
-
-def derivative_spec(spec: PhiSpec) -> PhiSpec:
-    """The phi whose Jacobians stand for ``spec``'s: ``spec`` itself, or its SAP copy when
-    ``linearize_approximation`` is "sap" and ``spec`` rolls out with another approximation
-    (Drake's contact approximations: the MuJoCo phi is differentiated as it rolls out)."""
-    approximation = linearized_approximation(spec.config, spec.world)
-    if approximation == spec.world.contact_approximation or spec.config.engine != "drake":
-        return spec
-    return replace(spec, world=replace(spec.world, contact_approximation=approximation))
-
-
-
-
 class PhiDynamics:
     """phi for iLQR (`ilqr.Dynamics`): ``step(t, x, u)``, ``rollout``, ``linearize``, and the
     contact forces of each step with their Jacobians (``step_forces``, ``linearize_forces``).
 
     Owns an in-process `Phi` for steps and, with ``config.workers`` > 0, uses a `WorkerPool`
     (its own, or a shared one passed in) for derivatives. Call `close` (or use ``with``) to stop
-    an owned pool. Derivatives are taken of `derivative_spec` (``spec`` or its SAP copy) at the
-    states ``spec``'s rollouts reach; the interaction graph comes from those rollouts.
+    an owned pool. Derivatives are taken of ``spec``'s phi at the states its rollouts reach; the
+    interaction graph comes from those rollouts.
     """
 
     def __init__(self, spec: PhiSpec, pool: WorkerPool | None = None):
@@ -132,8 +108,6 @@ class PhiDynamics:
         self.config = spec.config
         self.layout = spec.layout
         self.phi = build_phi(spec)
-        self.dspec = derivative_spec(spec)
-        self._dphi = self.phi if self.dspec is spec else None  # built on first serial use
         self._own_pool = pool is None and self.config.workers > 0
         self.pool = WorkerPool(self.config.workers) if self._own_pool else pool
         self._steps: OrderedDict = OrderedDict()
@@ -247,11 +221,6 @@ class PhiDynamics:
         knots = differentiated_knots(T, stride)
         self.stats = LinearizeStats(knots=T)
         self._trace_missing(xs, us, range(T))
-        if stride > 1 and self.config.stride_quiet_only:
-            active = active_knots(self.layout, [self._steps[self._key(xs[t], us[t])]
-                                                for t in range(T)], self.config.quiet_speed)
-            self.stats.active_knots = len(active)
-            knots = sorted(set(knots) | set(active))
         self.stats.differentiated_knots = len(knots)
         pending: dict[tuple, list[tuple[np.ndarray, int]]] = {}
         work = [self._plan(t, xs[t], us[t], pending) for t in knots]
@@ -365,11 +334,11 @@ class PhiDynamics:
         tasks, owners = [], []
         for i, w in enumerate(work):
             if autodiff(w):
-                tasks.append(("autodiff", self.dspec.key, self.dspec, w.x, w.u, w.groups))
+                tasks.append(("autodiff", self.spec.key, self.spec, w.x, w.u, w.groups))
                 owners.append(i)
                 continue
             for start in range(0, len(w.groups), chunk):
-                tasks.append(("groups", self.dspec.key, self.dspec, w.x, w.u, self._nominal(w),
+                tasks.append(("groups", self.spec.key, self.spec, w.x, w.u, w.nominal,
                               w.groups[start:start + chunk], h, scheme))
                 owners.append(i)
         parts: list[list[np.ndarray]] = [[] for _ in work]
@@ -378,18 +347,11 @@ class PhiDynamics:
         width = self.layout.ndx + self.num_forces
         return [np.vstack(p) if p else np.zeros((0, width)) for p in parts]
 
-    def _nominal(self, w: _KnotWork):
-        """The nominal step forward differences are taken about: the rollout's own (x', f) when
-        phi is differentiated as it rolls out, else None (the SAP copy steps its own)."""
-        return w.nominal if self.dspec is self.spec else None
-
     def _serial(self, w: _KnotWork, h: float, scheme: str, autodiff: bool) -> np.ndarray:
-        if self._dphi is None:
-            self._dphi = build_phi(self.dspec)
         if not autodiff:
-            return group_differences(self._dphi, w.x, w.u, self._nominal(w), w.groups, h, scheme)
+            return group_differences(self.phi, w.x, w.u, w.nominal, w.groups, h, scheme)
         if self._autodiff is None:
-            self._autodiff = AutoDiffPhi(self._dphi)
+            self._autodiff = AutoDiffPhi(self.phi)
         return group_autodiff(self._autodiff, w.x, w.u, w.groups)
 
     def _assemble(self, w: _KnotWork, D: np.ndarray, J: np.ndarray) -> None:
@@ -429,18 +391,6 @@ def _close(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
     return bool(np.max(np.abs(a - b)) <= tolerance)
 
 
-def active_knots(layout, steps, quiet_speed: float) -> list[int]:
-    """The knots t whose step (x_next, edges, forces), one per knot, has the arm touching a
-    kept box (an edge between ARM_NODE and a box node) or a kept box moving at its end (|v| +
-    0.1 m x |w| above ``quiet_speed``, m/s; W frame)."""
-    out = []
-    for t, (x_next, edges, _) in enumerate(steps):
-        speed = box_speeds(layout, x_next)
-        if arm_touches_box(edges) or (len(speed) and float(speed.max()) > quiet_speed):
-            out.append(t)
-    return out
-
-
 def arm_touches_box(edges) -> bool:
     """Whether a step's interaction edges (`dynamics.Phi.step_traced`) join the arm to a kept
     box (frozen boxes and the shelf are not kept boxes)."""
@@ -448,8 +398,8 @@ def arm_touches_box(edges) -> bool:
 
 
 def box_speeds(layout, x: np.ndarray) -> np.ndarray:
-    """Each kept box's |v| + 0.1 m x |w| in state x (m/s; W frame): what `active_knots`
-    compares with ``quiet_speed``."""
+    """Each kept box's |v| + 0.1 m x |w| in state x (m/s; W frame): how fast a box still
+    moves."""
     boxes = layout.boxes(x)
     return np.linalg.norm(boxes[:, 10:13], axis=1) + 0.1 * np.linalg.norm(boxes[:, 7:10], axis=1)
 

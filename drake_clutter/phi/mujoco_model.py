@@ -35,7 +35,6 @@ from drake_clutter.common.physics_config import DynamicsConfig
 from drake_clutter.robot import pr2
 from drake_clutter.scene.scenes import Scene, SceneError, Shelf
 from drake_clutter.scene.shelf import SHELF_FRICTION, shelf_boxes
-from drake_clutter.worlds.drake_world import edge_points
 
 BOARD = "board"  # pair name of the shelf (all its parts)
 ACTOR = "actor"  # pair name of the arm or the suite's capsule
@@ -153,23 +152,7 @@ def capsule_actor(radius: float, length: float, start, armature: float) -> Actor
     return Actor(xml, ("actor",), ("actor_x", "actor_y", "actor_z"))
 
 
-def _edge_spheres(box: ModelBox, mu: float, config: DynamicsConfig) -> str:
-    """The box's edge spheres (``mujoco_shelf_contact`` "edges"): spheres of
-    ``edge_sphere_radius`` along its 12 edges at most ``edge_sphere_spacing`` apart, inset so
-    that they are flush with its faces, meeting only the shelf (collision bit 2), with the
-    box-shelf pair's coefficient (their priority makes it the contact's)."""
-    radius = config.edge_sphere_radius
-    half = np.asarray(box.size) / 2
-    inset = np.clip(np.abs(edge_points(box.size, config.edge_sphere_spacing)),
-                    None, half - radius)
-    points = np.sign(edge_points(box.size, config.edge_sphere_spacing)) * inset
-    return "".join(f'<geom type="sphere" size="{radius!r}" pos="{_v(p)}" contype="2" '
-                   f'conaffinity="0" priority="1" condim="3" friction="{mu!r} '
-                   f'{TORSIONAL_FRICTION!r} {ROLLING_FRICTION!r}" '
-                   f'{_solver_attributes(config)}/>' for p in np.unique(points, axis=0))
-
-
-def _box_xml(box: ModelBox, board_mu: float | None, config: DynamicsConfig) -> str:
+def _box_xml(box: ModelBox) -> str:
     quat, pos = box.pose[:4], box.pose[4:7]
     geom = (f"<geom name={quoteattr(box_geom(box.name))} type=\"box\" "
             f"size=\"{_v(np.array(box.size) / 2)}\" contype=\"0\" conaffinity=\"0\"/>")
@@ -177,11 +160,9 @@ def _box_xml(box: ModelBox, board_mu: float | None, config: DynamicsConfig) -> s
         return geom.replace("/>", f' pos="{_v(pos)}" quat="{_v(quat)}"/>')
     a, b, c = box.size
     inertia = box.mass / 12 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
-    spheres = (_edge_spheres(box, board_mu, config)
-               if config.mujoco_shelf_contact == "edges" and board_mu is not None else "")
     return (f"<body name={quoteattr(box_geom(box.name))} pos=\"{_v(pos)}\" "
             f"quat=\"{_v(quat)}\"><freejoint/><inertial pos=\"0 0 0\" mass=\"{box.mass!r}\" "
-            f"diaginertia=\"{_v(inertia)}\"/>{geom}{spheres}</body>")
+            f"diaginertia=\"{_v(inertia)}\"/>{geom}</body>")
 
 
 def _solver_attributes(config: DynamicsConfig) -> str:
@@ -213,8 +194,7 @@ def _pairs(shelf: Shelf, boxes: Sequence[ModelBox], actor: Actor,
             out += pairs(actor.geoms, ACTOR, box)
         if not box.dynamic:
             continue
-        if config.mujoco_shelf_contact == "box":
-            out += pairs(shelf_geoms, BOARD, box)
+        out += pairs(shelf_geoms, BOARD, box)
         for j, other in enumerate(boxes):
             if j != i and not (other.dynamic and j > i):
                 out += pairs([box_geom(other.name)], other.name, box)
@@ -231,13 +211,13 @@ def model_xml(shelf: Shelf, boxes: Sequence[ModelBox], actor: Actor,
     origin = np.array([*shelf.center_xy, shelf.top_height])
     parts = [f"<geom name={quoteattr(shelf_geom(name))} type=\"box\" "
              f"pos=\"{_v(origin + np.array(centre))}\" size=\"{_v(np.array(size) / 2)}\" "
-             f'contype="0" conaffinity="2"/>' for name, centre, size in shelf_boxes(shelf)]
+             f'contype="0" conaffinity="0"/>' for name, centre, size in shelf_boxes(shelf)]
     step = knot_time / substeps(knot_time, config)
     return (f'<mujoco model="phi"><option timestep="{step!r}" gravity="0 0 -9.81" '
             f'tolerance="{config.mujoco_solver_tolerance!r}" '
             f'ls_tolerance="{config.mujoco_line_search_tolerance!r}"/>'
             f"<worldbody>{''.join(parts)}{actor.xml}"
-            f"{''.join(_box_xml(b, pair_mu(BOARD, b.name), config) for b in boxes)}"
+            f"{''.join(_box_xml(b) for b in boxes)}"
             f"</worldbody><contact>{''.join(_pairs(shelf, boxes, actor, pair_mu, passes, config))}"
             f"</contact></mujoco>")
 

@@ -139,7 +139,7 @@ def test_known_blocks_match_fresh_differences(point10):
 def test_stride_differentiates_fewer_knots(point10):
     dynamics, xs, us = point10
     A1, B1 = dynamics.linearize_tangent(xs, us)
-    strided = _with_config(dynamics, derivative_stride=4, stride_quiet_only=False)
+    strided = _with_config(dynamics, derivative_stride=4)
     A4, B4 = strided.linearize_tangent(xs, us)
     knots = differentiated_knots(len(us), 4)
     assert strided.stats.differentiated_knots == len(knots) < len(us)
@@ -153,33 +153,6 @@ def test_stride_differentiates_fewer_knots(point10):
     A4_again, _ = strided.linearize_tangent(xs, us)
     assert strided.stats.differentiated_knots == len(knots)
     assert max(_rel(A4_again[t], A4[t]) for t in knots) < 2e-3
-
-
-def test_stride_skips_only_quiet_knots(point10):
-    """With stride_quiet_only, every knot where the arm touches a kept box or a box moves is
-    differentiated as at stride 1; the stride knots too; the rest are interpolated."""
-    from drake_clutter.phi.derivatives import active_knots
-
-    dynamics, xs, us = point10
-    A1, _ = dynamics.linearize_tangent(xs, us)
-    steps = [dynamics.phi.step_full(xs[t], us[t]) for t in range(len(us))]
-    active = active_knots(dynamics.layout, steps, dynamics.config.quiet_speed)
-    touching = [t for t in range(len(us)) if any(0 in e and min(e) >= 0 and max(e) > 0
-                                                  for e in steps[t][1])]
-    assert touching and set(touching) <= set(active)  # the reach pushes boxes
-    assert len(active) < len(us)  # the reach's first half is quiet
-    strided = _with_config(dynamics, derivative_stride=4, stride_quiet_only=True)
-    A4, _ = strided.linearize_tangent(xs, us)
-    knots = sorted(set(differentiated_knots(len(us), 4)) | set(active))
-    assert strided.stats.differentiated_knots == len(knots) < len(us)
-    assert strided.stats.active_knots == len(active)
-    for t in active:
-        assert _rel(A4[t], A1[t]) < 2e-3
-    quiet = next(t for t in range(len(us)) if t not in knots)
-    before = max(k for k in knots if k < quiet)
-    after = min(k for k in knots if k > quiet)
-    s = (quiet - before) / (after - before)
-    np.testing.assert_allclose(A4[quiet], (1 - s) * A4[before] + s * A4[after])
 
 
 def test_parallel_workers_give_the_serial_bits():
@@ -371,49 +344,6 @@ def test_autodiff_with_hunt_crossley_contact_is_a_config_error(method):
     fd = make_spec(scene, [], config=DynamicsConfig(workers=0, derivative_method="fd"),
                    world=WorldConfig(contact_approximation="similar"))
     PhiDynamics(fd)  # finite differences are allowed
-    sap = make_spec(scene, [], config=DynamicsConfig(workers=0, derivative_method=method,
-                                                     linearize_approximation="sap"),
-                    world=WorldConfig(contact_approximation="similar"))
-    PhiDynamics(sap)  # so is AutoDiffXd of the SAP copy
-
-
-def test_hunt_crossley_rollouts_are_linearised_with_sap(hydro10):
-    """linearize_approximation 'sap': phi rolls out under Hunt-Crossley ("similar") and its
-    Jacobians are SAP's at the states those rollouts reach - AutoDiffXd, in process and in the
-    workers, equal to a SAP copy's dense AutoDiffXd; forward differences about the SAP copy's
-    own step (not the Hunt-Crossley one). Hunt-Crossley's own forward differences are noise
-    (docs/phi.md: Hunt-Crossley contact and its derivatives), the SAP copy's are not. Measured
-    here: AutoDiffXd against the reference <= 2.5e-8; median whole-Jacobian distance from it
-    3.1e-4 for the SAP copy's forward differences, 207 for Hunt-Crossley's own."""
-    from drake_clutter.common.config import WorldConfig
-    from drake_clutter.phi.derivatives import derivative_spec
-
-    dynamics, xs, us = hydro10
-    world = WorldConfig(contact_approximation="similar")
-    config = dataclasses.replace(dynamics.config, derivative_method="autodiff",
-                                 linearize_approximation="sap")
-    mixed = PhiDynamics(dataclasses.replace(dynamics.spec, config=config, world=world))
-    assert mixed.dspec.world.contact_approximation == "sap"
-    x_hc = mixed.rollout(xs[0], us)
-    assert np.abs(x_hc - xs).max() > 1e-4  # a different simulation
-    A, B = mixed.linearize_tangent(x_hc, us)
-    reference = AutoDiffPhi(Phi(derivative_spec(mixed.spec)))
-    errors = [_rel(np.hstack([A[t], B[t]]), np.hstack(reference.jacobians(x_hc[t], us[t])))
-              for t in range(len(us))]
-    assert max(errors) < 1e-6, errors
-    with WorkerPool(2) as pool:
-        Ap, _ = PhiDynamics(mixed.spec, pool=pool).linearize_tangent(x_hc, us)
-    np.testing.assert_array_equal(A, Ap)
-    fd_errors = {}
-    for name, linearize in (("sap", "sap"), ("similar", "rollout")):
-        fd_config = dataclasses.replace(config, derivative_method="fd",
-                                        linearize_approximation=linearize)
-        fd = PhiDynamics(dataclasses.replace(mixed.spec, config=fd_config))
-        Af, Bf = fd.linearize_tangent(x_hc, us)
-        fd_errors[name] = np.median([_rel(np.hstack([Af[t], Bf[t]]), np.hstack([A[t], B[t]]))
-                                     for t in range(len(us))])
-    assert fd_errors["sap"] < 1e-2, fd_errors
-    assert fd_errors["similar"] > 10 * fd_errors["sap"], fd_errors
 
 
 def test_autodiff_refuses_box_point_contact():

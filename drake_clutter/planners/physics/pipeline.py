@@ -116,7 +116,7 @@ def solver_settings(config: Config, iterations: int, knot_time: float | None = N
                     bounds: tuple[np.ndarray, np.ndarray] | None = None,
                     deadline: float | None = None) -> ilqr.ILQRSettings:
     """The solver's settings (line search of `PhysicsConfig`); with ``knot_time`` (s) those of
-    a phi stage: also the trust region, the open-loop retry, the failed-search stop (the
+    a phi stage: also the trust region, the failed-search stop (the
     kinematic stages need mu ~ 1 before their first step, measured on fig5/fig6) and the cost
     floor 0 (every Table I term is non-negative; fig6's first model predicted a decrease of
     6.8e5 from an objective of 2.7e3 and every rollout failed, measured). ``bounds``: per-knot
@@ -131,22 +131,12 @@ def solver_settings(config: Config, iterations: int, knot_time: float | None = N
     if knot_time is None:
         return settings
     limit = tuple(float(v) for v in cfg.step_limit_fraction * max_steps(cfg, knot_time))
-    return replace(settings, open_loop_fallback=cfg.open_loop_fallback, cost_floor=0.0,
+    return replace(settings, cost_floor=0.0,
                    max_failed_searches=cfg.max_failed_searches, min_step=cfg.min_step,
-                   feedback=cfg.feedback, step_limit=limit, trust_bounds=cfg.trust_bounds,
+                   step_limit=limit, trust_bounds=cfg.trust_bounds,
                    trust_adapt=cfg.trust_adapt, accept_ratio=cfg.accept_ratio,
                    reg_scale=limit if cfg.scaled_regulariser else None,
                    stall_fraction=cfg.stall_fraction, stall_iterations=cfg.stall_iterations)
-
-
-def arm_feedback_mask(augmented: AugmentedPhi) -> tuple[bool, ...]:
-    """The tangent coordinates of z = [x, q^(t-1)] that are the arm's (q^t, the first 8 of x,
-    and q^(t-1)): deviations there are the controls' own (the arm is kinematic), the boxes'
-    are chaotic in contact."""
-    mask = np.zeros(augmented.ndx + ARM_DIM, dtype=bool)
-    mask[:ARM_DIM] = True
-    mask[augmented.ndx:] = True
-    return tuple(bool(m) for m in mask)
 
 
 def _stage_record(result: ilqr.ILQRResult, seconds: float, extra: dict | None = None) -> dict:
@@ -227,8 +217,6 @@ def physics_stage(context: PlanningContext, q: np.ndarray, variant: str, iterati
         q = starts[int(np.argmin(values))]
         bounds = knot_bounds(q, min_final_opening=min_opening)
         settings = solver_settings(config, iterations, knot_time, bounds, deadline)
-        if config.physics.feedback_state == "arm":
-            settings = replace(settings, feedback_mask=arm_feedback_mask(augmented))
         if basis is None:
             result = ilqr.solve(augmented, objective, z0, q[1:], settings,
                                 difference=augmented.difference)

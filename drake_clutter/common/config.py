@@ -420,8 +420,6 @@ class Config:
             ("physics.control_points", b.opt_spline_order <= p.control_points <= b.num_knots,
              f"between baseline.opt_spline_order ({b.opt_spline_order}) and "
              f"baseline.num_knots ({b.num_knots})"),
-            ("physics.approach_knots", p.approach_knots <= b.num_knots,
-             f"at most baseline.num_knots ({b.num_knots})"),
             ("evaluation.monitor_interval", period <= b.knot_time,
              f"such that the judge's control period sim_dt x monitor_interval ({period:g} s) "
              f"is at most baseline.knot_time ({b.knot_time:g} s)"),

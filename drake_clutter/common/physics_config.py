@@ -156,12 +156,6 @@ class PhysicsConfig:
     distance_curvature: Literal["gauss_newton", "majorizer"] = "majorizer"
     # Hessian of c_upright ("tilt": J'J/s of z's horizontal part; "angle": as c_grasp), choice; ours
     upright_curvature: Literal["tilt", "angle"] = "tilt"
-    # last knots (Delta included) held on the straight approach (0 = off), count; ours
-    approach_knots: int = bounded(0, ge=0)
-    # weight of c_approach = 1/2 offset^2 (m^2; 1 cm costs 5), unitless; ours
-    w_approach: float = bounded(1e5, ge=0.0)
-    # weight of c_approach_axis = 1 - x_G.d (0.1 rad costs 5), unitless; ours
-    w_approach_axis: float = bounded(1e3, ge=0.0)
     # force(q, x) of c_force ("phi": phi's contact forces, or "proxy"), choice; Table I
     force_source: Literal["phi", "proxy"] = "phi"
     # stiffness of c_force's penetration-to-force proxy, N/m; ours

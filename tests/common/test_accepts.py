@@ -125,7 +125,6 @@ def test_a_value_outside_a_field_s_range_is_refused_in_one_line(path, f, tp, cap
     (["baseline.ik_min_distance=0.03"], "baseline.ik_min_distance", "below d_safe"),
     (["baseline.opt_control_points=40"], "baseline.opt_control_points", "num_knots"),
     (["physics.control_points=3"], "physics.control_points", "opt_spline_order"),
-    (["physics.approach_knots=31"], "physics.approach_knots", "num_knots"),
     (["evaluation.monitor_interval=500", "evaluation.force_window=1"],
      "evaluation.monitor_interval", "control period"),
     (["evaluation.force_window=0.001"], "evaluation.force_window", "control period"),

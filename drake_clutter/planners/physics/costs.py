@@ -181,19 +181,3 @@ def force(forces: np.ndarray, jacobian: np.ndarray) -> Term:
     return _quadratic(forces, np.asarray(jacobian, dtype=float)).scaled(0.5)
 
 
-def approach_line(p_tool_W: np.ndarray, dp_dq: np.ndarray, p_target_W: np.ndarray,
-                  direction_W: np.ndarray, dtarget: np.ndarray | None = None) -> Term:
-    """c_approach (ours, not in Table I) = 1/2 ||(I - d d') (p_gripper - p_target)||^2 (m^2):
-    the tool frame's offset from the approach line through the target point along the unit
-    direction d, over (arm joints, the target point's arguments: ``dtarget`` (3, k) is its
-    Jacobian, default I, its own position); exact Hessian."""
-    d = np.asarray(direction_W, dtype=float)
-    P = np.eye(3) - np.outer(d, d)
-    dt = np.eye(3) if dtarget is None else np.asarray(dtarget)
-    return _quadratic(P @ (p_tool_W - p_target_W), P @ np.hstack([dp_dq, -dt])).scaled(0.5)
-
-
-def approach_axis(axis_W: np.ndarray, da_dq: np.ndarray, direction_W: np.ndarray) -> Term:
-    """c_approach_axis (ours) = 1 - a.d = 1/2 ||a - d||^2 for the gripper's unit approach axis
-    a and the unit direction d, over the arm joints; Gauss-Newton Hessian."""
-    return _quadratic(np.asarray(axis_W) - np.asarray(direction_W), np.asarray(da_dq)).scaled(0.5)

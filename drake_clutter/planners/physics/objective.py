@@ -128,18 +128,16 @@ def max_steps(config: PhysicsConfig, knot_time: float) -> np.ndarray:
 class PhysicsObjective:
     """Sec. V's objective over z = [x, q_prev] and u = q^(t+1) (see the module docstring).
 
-    ``x0`` is the start state (its boxes' positions are c_motion's p_i^1); ``target`` the
-    target box's name (its centre is c_grasp's point: its state position when kept, else its
-    resting pose). Boxes in ``force_exclude`` have no proxy c_force (the sphere stage's
-    target); ``static_geometry`` (default: ``geometry``) is the arm whose distances to the shelf
-    make c_static (the sphere stage's capsules). ``forces``: phi's contact forces
-    (``step_forces(x, u)`` and ``linearize_forces(xs, us)``, as `derivatives.PhiDynamics`)
-    for c_force, unless ``config.force_source`` is "proxy". ``approach``: the direction (W) of
-    c_approach / c_approach_axis on the last ``approach_knots`` knots (None: no such terms).
-    ``grasp_offset``: c_grasp's gripper point lies this far (m) behind G along x_G
-    (`approach.grasp_offset`: the pads' centre). ``aim_T``: where that gripper point should
-    end, in the target's frame T (m; the candidate's pre-grasp point, `pregrasp_aim`), so it
-    follows the target where phi moves it. None, or ``grasp_aim`` "centre": the target's
+    ``x0`` is the start state (its boxes' positions are c_motion's p_i^1); ``target`` the target
+    box's name (its centre is c_grasp's point: its state position when kept, else its resting pose).
+    Boxes in ``force_exclude`` have no proxy c_force (the sphere stage's target);
+    ``static_geometry`` (default: ``geometry``) is the arm whose distances to the shelf make
+    c_static (the sphere stage's capsules). ``forces``: phi's contact forces (``step_forces(x, u)``
+    and ``linearize_forces(xs, us)``, as `derivatives.PhiDynamics`) for c_force, unless
+    ``config.force_source`` is "proxy". ``grasp_offset``: c_grasp's gripper point lies this far (m)
+    behind G along x_G (`approach.grasp_offset`: the pads' centre). ``aim_T``: where that gripper
+    point should end, in the target's frame T (m; the candidate's pre-grasp point, `pregrasp_aim`),
+    so it follows the target where phi moves it. None, or ``grasp_aim`` "centre": the target's
     centre (Table I as written).
     """
 
@@ -147,12 +145,10 @@ class PhysicsObjective:
                  x0: np.ndarray, target: str, knot_time: float, d_safe: float,
                  force_exclude: tuple[str, ...] = (),
                  static_geometry: ArmGeometry | None = None, forces=None,
-                 approach: np.ndarray | None = None, grasp_offset: float = 0.0,
+                 grasp_offset: float = 0.0,
                  aim_T: np.ndarray | None = None):
         self.geometry, self.layout, self.config = geometry, layout, config
         self.grasp_offset = grasp_offset
-        self.approach = (None if approach is None
-                         else np.asarray(approach, dtype=float) / np.linalg.norm(approach))
         self.knot_time, self.d_safe = knot_time, d_safe
         self.force_exclude = tuple(force_exclude)
         self.forces = forces if config.force_source == "phi" else None
@@ -178,10 +174,8 @@ class PhysicsObjective:
                 for n, b in zip(self.layout.box_names, self.layout.boxes(z[:self.nx]),
                                 strict=True)}
 
-    def state_terms(self, z: np.ndarray, terminal: bool, approach: bool = False
-                    ) -> dict[str, Term]:
-        """Weighted Terms over dz (nz,) of the costs on one knot's state (t >= 1); with
-        ``approach``, c_approach and c_approach_axis too (if the objective has a direction)."""
+    def state_terms(self, z: np.ndarray, terminal: bool) -> dict[str, Term]:
+        """Weighted Terms over dz (nz,) of the costs on one knot's state (t >= 1)."""
         cfg, q = self.config, z[:ARM_DIM]
         contacts = self.geometry.contacts(q, self.box_poses(z), self.d_safe)
         out = {"static": self._static(z, contacts)}
@@ -190,13 +184,7 @@ class PhysicsObjective:
         out.update(self._box_terms(z))
         if terminal:
             out.update(self._terminal(z))
-        if approach and self.approach is not None:
-            out.update(self._approach(z))
         return out
-
-    def in_approach(self, t: int, T: int) -> bool:
-        """Whether knot t of 1..T is one of the last ``approach_knots``."""
-        return t > T - self.config.approach_knots
 
     def _static(self, z: np.ndarray, contacts: list[Contact]) -> Term:
         """Weighted c_static over dz at the knot: from ``contacts``, or in ``static_geometry``
@@ -263,19 +251,6 @@ class PhysicsObjective:
         dtarget = np.hstack([-_skew(r_W), np.eye(3)])
         return X_WT.translation() + r_W, arm + list(range(s, s + 6)), None, dtarget
 
-    def _approach(self, z: np.ndarray) -> dict[str, Term]:
-        """Weighted c_approach and c_approach_axis (see `PhysicsConfig.approach_knots`) on one
-        knot's state, along ``self.approach`` (unit, W)."""
-        cfg, q = self.config, z[:ARM_DIM]
-        p, _, dp, _ = self.geometry.tool(q)
-        p_target, columns, first, dtarget = self._target_point(z)
-        line = _embed(costs.approach_line(p, dp, p_target, self.approach, dtarget), columns,
-                      self.nz, first=first)
-        axis = _embed(costs.approach_axis(*self.geometry.tool_axis(q, 0), self.approach),
-                      list(range(ARM_DIM)), self.nz)
-        return {"approach": line.scaled(cfg.w_approach),
-                "approach_axis": axis.scaled(cfg.w_approach_axis)}
-
     def acc_term(self, z: np.ndarray, u: np.ndarray) -> Term:
         """Weighted c_acc + w_speed c_speed over (dz, du) (nz + 8,) of the interval from z
         with control u."""
@@ -294,7 +269,7 @@ class PhysicsObjective:
         out: dict[str, float] = {}
         T = len(us)
         for t in range(1, T + 1):
-            terms = self.state_terms(zs[t], terminal=t == T, approach=self.in_approach(t, T))
+            terms = self.state_terms(zs[t], terminal=t == T)
             for name, term in terms.items():
                 out[name] = out.get(name, 0.0) + term.value
         out["acc"] = sum(self.acc_term(zs[t], us[t]).value for t in range(T))
@@ -329,10 +304,10 @@ class PhysicsObjective:
             luu[t] += acc.hessian[nz:, nz:]
             lux[t] += acc.hessian[nz:, :nz]
             if t >= 1:
-                for term in self.state_terms(zs[t], False, self.in_approach(t, T)).values():
+                for term in self.state_terms(zs[t], False).values():
                     lx[t] += term.gradient
                     lxx[t] += term.hessian
-        for term in self.state_terms(zs[T], True, self.in_approach(T, T)).values():
+        for term in self.state_terms(zs[T], True).values():
             vx += term.gradient
             vxx += term.hessian
         if self.forces is not None:

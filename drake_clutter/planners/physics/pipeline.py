@@ -187,8 +187,7 @@ def postprocess(context: PlanningContext, q_ref: np.ndarray, deadline: float | N
 
 def physics_stage(context: PlanningContext, q: np.ndarray, variant: str, iterations: int,
                   pool: WorkerPool | None = None, times: np.ndarray | None = None,
-                  alternatives: tuple[np.ndarray, ...] = (),
-                  approach: np.ndarray | None = None, min_opening: float | None = None,
+                  alternatives: tuple[np.ndarray, ...] = (), min_opening: float | None = None,
                   deadline: float | None = None, aim_T: np.ndarray | None = None
                   ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
     """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
@@ -196,14 +195,13 @@ def physics_stage(context: PlanningContext, q: np.ndarray, variant: str, iterati
     stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
     shape and start), iLQR starts from whichever of ``q`` and them has the lowest objective in
     this stage's phi (pruned for all of them); info's ``start_objectives`` lists them.
-    ``approach``: the final approach direction in W of c_approach
-    (`PhysicsConfig.approach_knots`); ``min_opening``: the last knot's least gripper opening
+    ``min_opening``: the last knot's least gripper opening
     (m, `knot_bounds`); ``deadline``: see `solver_settings`; ``aim_T``: c_grasp's point in
     the target's frame (`objective.pregrasp_aim`; default: ``q``'s last knot's)."""
     config = context.config
     knot_time = _knot_time(times, config)
-    with stage_problem(context, q, variant, pool, knot_time, approach,
-                       also=tuple(alternatives), aim_T=aim_T) as problem:
+    with stage_problem(context, q, variant, pool, knot_time, also=tuple(alternatives),
+                       aim_T=aim_T) as problem:
         augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
         starts = [q, *alternatives]
         basis = None
@@ -261,8 +259,8 @@ def _knot_time(times: np.ndarray | None, config: Config) -> float:
 
 
 def select_path(context: PlanningContext, paths: dict[str, np.ndarray], pool=None,
-                times: np.ndarray | None = None, approach: np.ndarray | None = None,
-                aim_T: np.ndarray | None = None) -> tuple[str, dict]:
+                times: np.ndarray | None = None, aim_T: np.ndarray | None = None
+                ) -> tuple[str, dict]:
     """The name of the knot path (each (T + 1, 8), one start) with the lowest objective of the
     full stage (capsule arm, hold tail) in one phi pruned for all ``paths``, and what was
     measured: each path's objective (None where phi fails) and the pruning. Ties go to the
@@ -271,8 +269,8 @@ def select_path(context: PlanningContext, paths: dict[str, np.ndarray], pool=Non
     knot_time = _knot_time(times, context.config)
     names = list(paths)
     first, *others = (paths[n] for n in names)
-    with stage_problem(context, first, "capsules", pool, knot_time, approach,
-                       also=tuple(others), aim_T=aim_T) as problem:
+    with stage_problem(context, first, "capsules", pool, knot_time, also=tuple(others),
+                       aim_T=aim_T) as problem:
         values = {n: _path_objective(problem.augmented, problem.objective, problem.z0,
                                      paths[n]) for n in names}
         pruning = problem.report.summary()
@@ -283,7 +281,7 @@ def select_path(context: PlanningContext, paths: dict[str, np.ndarray], pool=Non
 
 def _phi_stage_or_restart(context: PlanningContext, paths: tuple[np.ndarray, np.ndarray],
                           variant: str, iterations: int, pool, times,
-                          alternatives: tuple[np.ndarray, ...] = (), approach=None,
+                          alternatives: tuple[np.ndarray, ...] = (),
                           deadline: float | None = None, aim_T: np.ndarray | None = None):
     """`physics_stage` from ``paths[0]`` (or the best of ``alternatives``, see there); if phi
     cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
@@ -292,8 +290,7 @@ def _phi_stage_or_restart(context: PlanningContext, paths: tuple[np.ndarray, np.
     opening = (float(paths[1][-1, GRIPPER]) if context.config.physics.keep_open else None)
     try:
         q, result, info = physics_stage(context, paths[0], variant, iterations, pool,
-                                        times, alternatives, approach, opening, deadline,
-                                        aim_T=aim_T)
+                                        times, alternatives, opening, deadline, aim_T=aim_T)
         best = int(np.argmin(info["start_objectives"]))
         return q, result, {**info, "started_from": "previous stage" if best == 0 else
                            f"alternative {best}"}
@@ -301,8 +298,8 @@ def _phi_stage_or_restart(context: PlanningContext, paths: tuple[np.ndarray, np.
         if np.array_equal(paths[0], paths[1]):
             raise
         q, result, info = physics_stage(context, paths[1], variant, iterations, pool,
-                                        times, approach=approach, min_opening=opening,
-                                        deadline=deadline, aim_T=aim_T)
+                                        times, min_opening=opening, deadline=deadline,
+                                        aim_T=aim_T)
         return q, result, {**info, "started_from": f"baseline ({exc})"}
 
 
@@ -379,9 +376,6 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate,
         timings["height"] = time.perf_counter() - tic
     details["start_score"] = selection_score("baseline", candidate.details, config.baseline)
     q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
-    # The baseline's final approach axis: its straight line into the pre-grasp (Sec. IV);
-    # only c_approach reads it.
-    approach = at_rest.tool_axis(baseline_q[-1], 0)[0] if cfg.approach_knots > 0 else None
     # c_grasp aims where the start path's pads end (its pre-grasp), carried by the target.
     aim_T = pregrasp_aim(at_rest, baseline_q[-1], scene.target, grasp_offset(config.baseline))
     tic = time.perf_counter()
@@ -411,7 +405,7 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate,
                                if p is not q and not np.array_equal(p, q))
             q, result, info = _phi_stage_or_restart(context, (q, baseline_q), variant,
                                                     iterations, pool, candidate.trajectory.times,
-                                                    others, approach, budget.deadline, aim_T)
+                                                    others, budget.deadline, aim_T)
         except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
             timings[name] = time.perf_counter() - tic
             return _failed(candidate, f"{name} stage: {exc}", timings, details)
@@ -435,8 +429,7 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate,
         paths = {"post": q, "pre": q_pre, "baseline": baseline_q}
         try:
             chosen, details["select"] = select_path(context, paths, pool,
-                                                    candidate.trajectory.times, approach,
-                                                    aim_T)
+                                                    candidate.trajectory.times, aim_T)
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep post
             chosen, details["select"] = "post", {"chosen": "post", "error": str(exc)}
         q = paths[chosen]

@@ -252,14 +252,13 @@ class StageProblem:
 @contextmanager
 def stage_problem(context: PlanningContext, q: np.ndarray, variant: str,
                   pool: WorkerPool | None = None, knot_time: float | None = None,
-                  approach: np.ndarray | None = None, also: tuple[np.ndarray, ...] = (),
-                  aim_T: np.ndarray | None = None):
-    """The `StageProblem` of a phi stage (``variant`` arm) about the knot path ``q`` (T + 1,
-    8; phi pruned to it and to the paths ``also``), ``knot_time`` s apart (default
-    ``baseline.knot_time``); its phi is closed on leaving the ``with`` block. ``approach``: as
-    in `physics_stage`. ``aim_T``: c_grasp's point in the target's frame (m, `pregrasp_aim`;
-    default: the gripper point at ``q``'s last knot, the target at rest). The objective's arm
-    is the stage's own (`PlanningContext.fresh_arm`: it moves the boxes to phi's poses)."""
+                  also: tuple[np.ndarray, ...] = (), aim_T: np.ndarray | None = None):
+    """The `StageProblem` of a phi stage (``variant`` arm) about the knot path ``q`` (T + 1, 8; phi
+    pruned to it and to the paths ``also``), ``knot_time`` s apart (default ``baseline.knot_time``);
+    its phi is closed on leaving the ``with`` block. ``aim_T``: c_grasp's point in the target's
+    frame (m, `pregrasp_aim`; default: the gripper point at ``q``'s last knot, the target at rest).
+    The objective's arm is the stage's own (`PlanningContext.fresh_arm`: it moves the boxes to phi's
+    poses)."""
     scene, config = context.scene, context.config
     knot_time = knot_time or config.baseline.knot_time
     spec, report = make_pruned_spec(scene, q, None, knot_time, config.dynamics, config.world,
@@ -290,7 +289,7 @@ def stage_problem(context: PlanningContext, q: np.ndarray, variant: str,
         objective = PhysicsObjective(geometry, layout, cfg, x0, scene.target, knot_time,
                                      config.baseline.d_safe, force_exclude=held,
                                      static_geometry=static, forces=dynamics,
-                                     approach=approach, grasp_offset=offset, aim_T=aim_T)
+                                     grasp_offset=offset, aim_T=aim_T)
         per_box = cfg.spectral_cap_scope == "box"
         augmented = AugmentedPhi(dynamics, cfg.max_spectral_radius, cfg.parallel_line_search,
                                  cfg.hold_knots, per_box)

@@ -7,8 +7,6 @@ moved into the arm, so that every geometric term is active.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
@@ -24,7 +22,6 @@ from drake_clutter.phi.state import (
 )
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import SHELF, ArmGeometry, path_depths, path_press
-from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective
 from drake_clutter.planners.physics.penetration import (
     segment_penetration,
@@ -156,7 +153,7 @@ def physics_problem(scene, geometry):
     x = initial_state(layout, q, moved)
     z = np.concatenate([x, Q_PREGRASP + 0.01])
     objective = PhysicsObjective(geometry, layout, PhysicsConfig(), x0, "target",
-                                 knot_time=0.2, d_safe=0.02, approach=np.array([1.0, 0.2, 0.05]))
+                                 knot_time=0.2, d_safe=0.02)
     return objective, layout, z
 
 
@@ -201,15 +198,14 @@ def _retract_z(layout, z, dz):
 @pytest.mark.parametrize("terminal", [False, True])
 def test_state_terms_gradients_match_differences(physics_problem, terminal):
     objective, layout, z = physics_problem
-    terms = objective.state_terms(z, terminal, approach=terminal)
+    terms = objective.state_terms(z, terminal)
     assert terms["force"].value > 0 and terms["upright"].value > 0 and terms["motion"].value > 0
     if terminal:
         assert terms["grasp"].value > 0 and terms["grp_open"].value > 0
-        assert terms["approach"].value > 0 and terms["approach_axis"].value > 0
     names = sorted(terms)
 
     def values(d):
-        found = objective.state_terms(_retract_z(layout, z, d), terminal, approach=terminal)
+        found = objective.state_terms(_retract_z(layout, z, d), terminal)
         return np.array([found[n].value for n in names])
 
     numeric_all = _numeric_jacobian(values, np.zeros(objective.nz))
@@ -329,38 +325,6 @@ def test_trajectory_terms_and_expansion_agree(physics_problem):
     state = objective.state_terms(z, False)
     np.testing.assert_allclose(exp.lx[1] - objective.acc_term(z, us[1]).gradient[:objective.nz],
                                sum(t.gradient for t in state.values()), atol=1e-9)
-
-
-def test_approach_terms_hold_the_last_knots_only(physics_problem):
-    base, layout, z = physics_problem
-    objective = PhysicsObjective(base.geometry, layout, replace(base.config, approach_knots=2),
-                                 z[:layout.nx], "target", knot_time=0.2, d_safe=0.02,
-                                 approach=base.approach)
-    zs, us = np.array([z, z, z, z]), np.array([z[:8]] * 3)
-    assert [objective.in_approach(t, 3) for t in (1, 2, 3)] == [False, True, True]
-    terms = objective.terms(zs, us)
-    single = objective.state_terms(z, True, approach=True)
-    for name in ("approach", "approach_axis"):
-        assert terms[name] == pytest.approx(2 * single[name].value) and terms[name] > 0
-    exp = objective.quadratize(zs, us)
-    no_approach = objective.state_terms(z, False)
-    np.testing.assert_allclose(exp.lx[1] - objective.acc_term(z, us[1]).gradient[:objective.nz],
-                               sum(t.gradient for t in no_approach.values()), atol=1e-9)
-    with_approach = objective.state_terms(z, False, approach=True)
-    np.testing.assert_allclose(exp.lx[2] - objective.acc_term(z, us[2]).gradient[:objective.nz],
-                               sum(t.gradient for t in with_approach.values()), atol=1e-9)
-
-
-def test_approach_line_is_zero_on_the_line_and_grows_off_it():
-    d = np.array([1.0, 0.0, 0.0])
-    dp = np.zeros((3, 8))
-    on = costs.approach_line(np.array([0.7, 0.0, 0.8]), dp, np.array([0.8, 0.0, 0.8]), d)
-    off = costs.approach_line(np.array([0.7, 0.03, 0.84]), dp, np.array([0.8, 0.0, 0.8]), d)
-    assert on.value == pytest.approx(0.0) and off.value == pytest.approx(0.5 * 0.05**2)
-    assert costs.approach_axis(d, np.zeros((3, 8)), d).value == pytest.approx(0.0)
-    tilted = np.array([np.cos(0.1), 0.0, -np.sin(0.1)])
-    assert costs.approach_axis(tilted, np.zeros((3, 8)), d).value == pytest.approx(
-        1 - np.cos(0.1))
 
 
 # ----------------------------------------------------------------------------- kinematic
@@ -691,7 +655,7 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
     calls = []
 
     def stage(context, q, variant, iterations, pool, times, alternatives=(),
-              approach=None, min_opening=None, deadline=None, aim_T=None):
+              min_opening=None, deadline=None, aim_T=None):
         calls.append(q)
         if q[0, 0] == 1.0:  # phi cannot simulate the previous stage's path
             raise physics.PhiFailure("phi failed on the initial rollout")
@@ -721,7 +685,7 @@ def test_select_path_takes_the_lowest_objective_ties_to_the_first(monkeypatch):
     pruned_for = []
 
     @contextmanager
-    def problem(context, q, variant, pool, knot_time, approach, also=(), aim_T=None):
+    def problem(context, q, variant, pool, knot_time, also=(), aim_T=None):
         pruned_for.append(1 + len(also))
         yield SimpleNamespace(augmented=None, objective=None, z0=None,
                               report=SimpleNamespace(summary=lambda: "kept 0 of 0 boxes"))

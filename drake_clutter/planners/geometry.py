@@ -229,3 +229,12 @@ def box_depths(geometry: ArmGeometry, paths: dict, config: Config, target: str) 
     return {k: path_depths(geometry, np.asarray(q, dtype=float), config.physics.press_substeps,
                            config.physics.press_normal_z, (target,))
             for k, q in paths.items()}
+
+
+def contact_flags(depths: dict, config: Config) -> dict:
+    """Per key of ``depths`` (`box_depths`' (press, side) in m): (whether the path presses on a
+    box's top deeper than ``physics.press_tolerance``, whether it enters a non-target box's side
+    deeper than ``physics.side_tolerance``). A path with neither is clear of the boxes."""
+    physics = config.physics
+    return {k: (press > physics.press_tolerance, side > physics.side_tolerance)
+            for k, (press, side) in depths.items()}

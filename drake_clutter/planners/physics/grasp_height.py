@@ -10,7 +10,7 @@ top deeper than ``physics.press_tolerance`` nor enters a non-target box's side d
 from __future__ import annotations
 
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.geometry import box_depths
+from drake_clutter.planners.geometry import box_depths, contact_flags
 from drake_clutter.planners.starts import height_candidates, start_key
 from drake_clutter.trajectory import Candidate
 
@@ -20,14 +20,11 @@ def choose_height(context: PlanningContext, candidate: Candidate) -> tuple[Candi
     module's rule, and what was measured: per `start_key`, its height h (m), yaw offset (rad),
     press and side depths (m); the chosen key."""
     found = height_candidates(context, candidate)
-    scene, physics = context.scene, context.config.physics
     paths = {k: c.trajectory.q for k, c in found.items()}
-    depths = box_depths(context.arm(), paths, context.config, scene.target)
-    record, scores = {}, {}
-    for key, c in found.items():
-        press, side = depths[key]
-        record[start_key(*key)] = {"height": c.details.get("height"), "yaw_offset": key[1],
-                                   "press": press, "side": side}
-        scores[key] = (press > physics.press_tolerance, side > physics.side_tolerance)
+    depths = box_depths(context.arm(), paths, context.config, context.scene.target)
+    scores = contact_flags(depths, context.config)
+    record = {start_key(*key): {"height": c.details.get("height"), "yaw_offset": key[1],
+                                "press": depths[key][0], "side": depths[key][1]}
+              for key, c in found.items()}
     chosen = min(found, key=lambda k: (*scores[k], list(found).index(k)))
     return found[chosen], {"rule": "clear", "candidates": record, "chosen": start_key(*chosen)}

@@ -23,7 +23,7 @@ from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.geometry import ArmGeometry, box_depths
+from drake_clutter.planners.geometry import ArmGeometry, box_depths, contact_flags
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.planners.selection import FALLBACK
 from drake_clutter.planners.starts import height_candidates, start_key
@@ -96,12 +96,9 @@ def clear_starts(scene: Scene, starts: dict[str, np.ndarray], config: Config,
                  geometry: ArmGeometry) -> list[str]:
     """The starts (in order) whose path neither presses on a box's top deeper than
     ``physics.press_tolerance`` nor enters a non-target box's side deeper than
-    ``physics.side_tolerance``, with the boxes at rest (`geometry.box_depths`: the
-    "clear" rule of the physics planner's height choice)."""
-    depths = box_depths(geometry, starts, config, scene.target)
-    physics = config.physics
-    return [name for name, (press, side) in depths.items()
-            if press <= physics.press_tolerance and side <= physics.side_tolerance]
+    ``physics.side_tolerance``, with the boxes at rest (`geometry.contact_flags`)."""
+    flags = contact_flags(box_depths(geometry, starts, config, scene.target), config)
+    return [name for name, found in flags.items() if not any(found)]
 
 
 def push_table(candidates: list[Candidate]) -> str:

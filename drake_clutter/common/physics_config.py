@@ -241,7 +241,7 @@ class PhysicsConfig:
 class EnsembleConfig:
     """phi's ensemble: a plan scored over K perturbed rollouts (beyond the paper): all ours."""
 
-    # members of phi's ensemble, the nominal scene first (1: phi alone), count; ours
+    # members the judge in phi reads a plan in (push_search sets its own), count; ours
     members: int = bounded(1, ge=1)
     # seed of the members' worlds (member k draws from [seed, k]), integer; ours
     seed: int = bounded(1000, ge=0)

@@ -391,12 +391,6 @@ def _close(a: np.ndarray, b: np.ndarray, tolerance: float) -> bool:
     return bool(np.max(np.abs(a - b)) <= tolerance)
 
 
-def arm_touches_box(edges) -> bool:
-    """Whether a step's interaction edges (`dynamics.Phi.step_traced`) join the arm to a kept
-    box (frozen boxes and the shelf are not kept boxes)."""
-    return any(ARM_NODE in e and min(e) >= 0 and max(e) > ARM_NODE for e in edges)
-
-
 def box_speeds(layout, x: np.ndarray) -> np.ndarray:
     """Each kept box's |v| + 0.1 m x |w| in state x (m/s; W frame): how fast a box still
     moves."""

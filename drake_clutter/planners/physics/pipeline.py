@@ -365,7 +365,6 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate,
     scene, config = context.scene, context.config
     cfg = config.physics
     budget = Budget(cfg.time_budget)
-    at_rest = context.arm()
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
     if cfg.grasp_heights or cfg.approach_offsets:
         tic = time.perf_counter()
@@ -377,7 +376,8 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate,
     details["start_score"] = selection_score("baseline", candidate.details, config.baseline)
     q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     # c_grasp aims where the start path's pads end (its pre-grasp), carried by the target.
-    aim_T = pregrasp_aim(at_rest, baseline_q[-1], scene.target, grasp_offset(config.baseline))
+    aim_T = pregrasp_aim(context.arm(), baseline_q[-1], scene.target,
+                         grasp_offset(config.baseline))
     tic = time.perf_counter()
     try:
         q, result = preprocess(context, q, budget.deadline)

@@ -32,7 +32,8 @@ from drake_clutter.common.config import load_config
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.physics.pipeline import preprocess, solver_settings
+from drake_clutter.planners.physics.kinematic import preprocess
+from drake_clutter.planners.physics.limits import solver_settings
 from drake_clutter.planners.physics.stage import stage_problem
 from drake_clutter.scene import scenes
 from drake_clutter.scene.generators import generate_scene

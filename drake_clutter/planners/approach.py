@@ -208,6 +208,7 @@ class PoseIk:
         lower = np.array([lo for lo, _ in pr2.arm_joint_limits().values()])
         upper = np.array([hi for _, hi in pr2.arm_joint_limits().values()])
         self.lower, self.upper = lower, upper
+        self.fingers = world.robot_q(np.zeros(ARM_DOF), pr2.GRIPPER_MAX_OPENING)[ARM_DOF:]
 
     def _program(self, X_WG: RigidTransform, seed: np.ndarray, q_near: np.ndarray | None,
                  clear_of_shelf: bool):
@@ -234,7 +235,7 @@ class PoseIk:
         if q_near is not None:
             prog.AddQuadraticErrorCost(config.ik_near_weight * np.eye(ARM_DOF), q_near, arm)
         q_guess = np.zeros(world.plant.num_positions())
-        q_guess[index] = world.robot_q(seed, pr2.GRIPPER_MAX_OPENING)
+        q_guess[index] = np.concatenate([seed, self.fingers])
         prog.SetInitialGuess(q, q_guess)
         return prog, arm
 
@@ -313,3 +314,28 @@ def ik_seeds(config: BaselineConfig, first: list[np.ndarray], index: int) -> lis
     rng = np.random.default_rng(config.ik_seed + index)
     seeds += list(rng.uniform(limits[:, 0], limits[:, 1], (config.ik_random_seeds, ARM_DOF)))
     return seeds
+
+
+def end_configurations(ik: PoseIk, poses: ApproachPoses, config: BaselineConfig,
+                       previous: list[np.ndarray], index: int, timings: dict):
+    """IK of the pre-grasp and start poses (W) of angle ``index``: (q_start, q_end, the two
+    solvers' names), or the reason one failed (str). ``previous``: the pre-grasp solutions of
+    the angles planned before (the last seeds this one; this one's is appended);
+    ``timings["ik"]`` gets the seconds."""
+    end = ik.solve(poses.X_WPregrasp, ik_seeds(config, previous[-1:], index))
+    timings["ik"] = end.seconds
+    if end.q is None:
+        return f"pre-grasp pose: {end.reason}"
+    previous.append(end.q)
+    start = ik.solve(poses.X_WStart, ik_seeds(config, [end.q], index), q_near=end.q)
+    timings["ik"] += start.seconds
+    if start.q is None:
+        return f"start pose: {start.reason}"
+    # The start was pulled towards the pre-grasp solution; pull a pre-grasp solution back
+    # towards the start too and keep it if the pair is closer (the same IK branch).
+    closer = ik.solve(poses.X_WPregrasp, [start.q, end.q], q_near=start.q)
+    timings["ik"] += closer.seconds
+    if closer.q is not None and (np.linalg.norm(closer.q - start.q)
+                                 < np.linalg.norm(end.q - start.q)):
+        end = closer
+    return start.q, end.q, [start.solver, end.solver]

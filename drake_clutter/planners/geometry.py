@@ -238,3 +238,22 @@ def contact_flags(depths: dict, config: Config) -> dict:
     physics = config.physics
     return {k: (press > physics.press_tolerance, side > physics.side_tolerance)
             for k, (press, side) in depths.items()}
+
+
+def clear_paths(geometry: ArmGeometry, paths: dict, config: Config, target: str) -> list:
+    """The keys of ``paths`` (knot paths (T + 1, 8)), in order, whose path neither presses on
+    a box's top deeper than ``physics.press_tolerance`` nor enters a non-target box's side
+    deeper than ``physics.side_tolerance`` (`box_depths`, `contact_flags`)."""
+    flags = contact_flags(box_depths(geometry, paths, config, target), config)
+    return [key for key, found in flags.items() if not any(found)]
+
+
+def pregrasp_aim(geometry: ArmGeometry, q_pregrasp: np.ndarray, target: str,
+                 grasp_offset: float) -> np.ndarray:
+    """c_grasp's aim in the target's frame T (m): the gripper point (``grasp_offset`` m behind
+    G along x_G, `approach.grasp_offset`) at the pre-grasp configuration ``q_pregrasp`` (8,),
+    the target at rest where ``geometry`` has it."""
+    p, _, _, _ = geometry.tool(q_pregrasp)
+    if grasp_offset:
+        p = p - grasp_offset * geometry.tool_axis(q_pregrasp, 0)[0]
+    return geometry.rest_pose(target).inverse().multiply(np.asarray(p, dtype=float))

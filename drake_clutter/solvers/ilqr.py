@@ -56,7 +56,7 @@ import time
 
 import numpy as np
 
-from drake_clutter.solvers.descent import descend
+from drake_clutter.solvers.descent import descend, past
 from drake_clutter.solvers.problem import (
     Cost,
     Dynamics,
@@ -64,7 +64,6 @@ from drake_clutter.solvers.problem import (
     ILQRResult,
     ILQRSettings,
     StopReason,
-    past,
     per_knot_bounds,
     rollout,
     subtract,

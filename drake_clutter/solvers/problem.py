@@ -7,7 +7,6 @@ manifold, with ``difference(x_a, x_b) -> dx`` in tangent coordinates (see `ilqr`
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Protocol
@@ -101,12 +100,6 @@ class ILQRSettings:
     # the start (the tail of a converging run buys little); 0: no such rule
     stall_iterations: int = 2
     deadline: float | None = None  # a time.perf_counter() value (s): no iteration starts that
-
-
-def past(deadline: float | None, ahead: float = 0.0) -> bool:
-    """True when ``deadline`` (a time.perf_counter() value, s) is set and will have passed
-    ``ahead`` seconds from now."""
-    return deadline is not None and time.perf_counter() + ahead >= deadline
 
 
 class StopReason(StrEnum):

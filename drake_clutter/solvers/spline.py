@@ -31,14 +31,13 @@ import time
 
 import numpy as np
 
-from drake_clutter.solvers.descent import descend
+from drake_clutter.solvers.descent import descend, past
 from drake_clutter.solvers.ilqr import box_qp_solve, forward_passes_of, nearest_psd
 from drake_clutter.solvers.problem import (
     Cost,
     Dynamics,
     ILQRResult,
     ILQRSettings,
-    past,
     per_knot_bounds,
     rollout,
     subtract,

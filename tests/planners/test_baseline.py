@@ -231,8 +231,8 @@ def test_penetration_gradient_matches_finite_differences(bookshelf, world, clear
 def test_path_cost_gradient_matches_finite_differences(bookshelf, world, clearance):
     q_end = _near_board_configuration(bookshelf, world)
     q_start = q_end + np.array([0.3, -0.2, 0.1, 0.2, 0.0, 0.1, 0.0])
-    q = bl.interpolate(q_start, q_end, 8)
-    optimiser = bl.PathOptimiser(world, clearance, CONFIG)
+    q = cl.interpolate(q_start, q_end, 8)
+    optimiser = cl.PathOptimiser(world, clearance, CONFIG)
     value, grad = optimiser.path_cost(q, 2)
     hull = cl.static_hull_cost(clearance, q, CONFIG.d_safe, 2)[0]
     assert hull > 0
@@ -254,8 +254,8 @@ def test_spline_basis_reproduces_straight_lines():
     basis = spline_basis(30, 10, 4)
     np.testing.assert_allclose(basis.sum(axis=1), 1.0)
     assert basis[0, 0] == 1.0 and basis[-1, -1] == 1.0
-    line = bl.interpolate(np.zeros(7), np.arange(7.0), 30)
-    mapping = bl.PathMap(basis, line[0])
+    line = cl.interpolate(np.zeros(7), np.arange(7.0), 30)
+    mapping = cl.PathMap(basis, line[0])
     points = np.linalg.lstsq(basis[:, 1:], line - mapping.offset, rcond=None)[0]
     np.testing.assert_allclose(mapping(points.ravel()), line, atol=1e-12)
 
@@ -265,10 +265,10 @@ def test_optimiser_finds_the_straight_line_without_obstacle_costs(world, clearan
     straight line in joint space, whatever the initial guess."""
     config = dataclasses.replace(CONFIG, w_static_hull=0.0, fix_last_knot=True,
                                  opt_optimality_tolerance=1e-6)
-    optimiser = bl.PathOptimiser(world, clearance, config)
+    optimiser = cl.PathOptimiser(world, clearance, config)
     q_start = np.array([-0.5, 0.3, -1.5, -1.8, 1.0, -1.0, 0.5])
     q_end = q_start + np.array([0.4, 0.2, -0.3, 0.5, 0.6, -0.4, 0.2])
-    line = bl.interpolate(q_start, q_end, config.num_knots)
+    line = cl.interpolate(q_start, q_end, config.num_knots)
     bump = np.sin(np.linspace(0, np.pi, config.num_knots))[:, None] * 0.3
     clearance.set_arm(q_end)
     X_WG = world.tool_frame.CalcPoseInWorld(clearance.context)
@@ -293,7 +293,7 @@ def test_dense_check_catches_a_crossing_between_knots(bookshelf, world, clearanc
     above = ik.solve(X_above, [np.array(p) for p in CONFIG.ik_nominal_postures])
     below = ik.solve(X_below, ik_seeds(CONFIG, [above.q], 0))
     assert above.q is not None and below.q is not None
-    path = bl.interpolate(above.q, below.q, 2)
+    path = cl.interpolate(above.q, below.q, 2)
     knots_only = cl.dense_check(clearance, path, dataclasses.replace(CONFIG, check_substeps=1))
     assert knots_only.passed
     dense = cl.dense_check(clearance, path, CONFIG)

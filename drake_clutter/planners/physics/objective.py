@@ -1,6 +1,5 @@
-"""The objectives of Sec. V over iLQR's states and controls: Table I terms chained onto them.
-
-Two problems share the Table I terms of `costs` and the distances of `geometry`:
+"""The objective of Sec. V's phi stages over iLQR's states and controls: the Table I terms of
+`costs` and the distances of `geometry` chained onto them.
 
 **The physics problem** (`PhysicsObjective`, Sec. V). iLQR's state z = [x, q_prev]: phi's state
 x (`state.StateLayout`: the arm's configuration q^t at knot t, then 13 numbers per kept box)
@@ -32,12 +31,8 @@ state: for every arm-vs-box pair in contact f = k (-d), k = ``force_stiffness``.
 
 Penetration (c_static, c_static_hull, c_dynamic) is `penetration`'s.
 
-**The kinematic problems** (`KinematicObjective`, Sec. V-A and V-B): the boxes held fixed, the
-state is q^t (8) and the control q^(t+1). Pre-processing: c_static_hull + c_dynamic (arm vs the
-boxes but the target, over ``hull_substeps`` configurations per knot interval, as the baseline's
-c_static_hull) + c_vel, with c_grasp to the candidate's pre-grasp point and c_grp_horiz at the
-end in place of the baseline's terminal pose constraint. Post-processing: c_static at the knots
-(in the evaluation geometry) + c_match + c_match_vel to the reference path.
+The kinematic stages' objective (Sec. V-A, V-B) is `kinematic.KinematicObjective`, on the same
+terms.
 
 Every `terms` value is weighted (Table II / `PhysicsConfig`); `quadratize` returns the
 `ilqr.Expansion` in tangent coordinates.
@@ -53,10 +48,10 @@ from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, StateLayout, box_state
 from drake_clutter.planners.geometry import SHELF, ArmGeometry, Contact
 from drake_clutter.planners.physics import costs
 from drake_clutter.planners.physics.costs import Term
+from drake_clutter.planners.physics.limits import max_steps
 from drake_clutter.planners.physics.penetration import (
     distance_row,
     penetration_term,
-    segment_penetration,
 )
 from drake_clutter.robot import pr2
 from drake_clutter.solvers.ilqr import Expansion
@@ -86,17 +81,6 @@ def grasp_distance(p_tool_W: np.ndarray, dp_dq: np.ndarray, p_target_W: np.ndarr
     return Term(s - eps, g, H)
 
 
-def pregrasp_aim(geometry: ArmGeometry, q_pregrasp: np.ndarray, target: str,
-                 grasp_offset: float) -> np.ndarray:
-    """c_grasp's aim in the target's frame T (m): the gripper point (``grasp_offset`` m behind
-    G along x_G, `approach.grasp_offset`) at the pre-grasp configuration ``q_pregrasp`` (8,),
-    the target at rest where ``geometry`` has it."""
-    p, _, _, _ = geometry.tool(q_pregrasp)
-    if grasp_offset:
-        p = p - grasp_offset * geometry.tool_axis(q_pregrasp, 0)[0]
-    return geometry.rest_pose(target).inverse().multiply(np.asarray(p, dtype=float))
-
-
 def speed_limit(q: np.ndarray, u: np.ndarray, max_step: np.ndarray) -> Term:
     """sum_j max(0, |u_j - q_j| - max_step_j)^2 over (q, u) (16,): a joint moving farther in
     one knot interval than its speed limit allows (exact Hessian, piecewise constant)."""
@@ -111,15 +95,6 @@ def speed_limit(q: np.ndarray, u: np.ndarray, max_step: np.ndarray) -> Term:
     J[np.arange(len(rows)), n + rows] = sign
     r = excess[active]
     return Term(float(r @ r), 2.0 * J.T @ r, 2.0 * J.T @ J)
-
-
-def max_steps(config: PhysicsConfig, knot_time: float) -> np.ndarray:
-    """The largest move per knot interval of each TRAJECTORY_JOINTS coordinate (rad; m for
-    the opening) at ``speed_fraction`` of the PR2's speed limits."""
-    limits = pr2.velocity_limits()
-    arm = [limits[name] for name in pr2.ARM_JOINTS]
-    finger = 2.0 * limits[pr2.FINGER_JOINTS[0]]  # the gap moves at twice a finger
-    return config.speed_fraction * knot_time * np.array(arm + [finger])
 
 
 # ----------------------------------------------------------------------------- physics
@@ -343,96 +318,3 @@ def _embed(term: Term, columns: list[int], n: int, first: int | None = None) -> 
     return Term(term.value, g, H)
 
 
-# ----------------------------------------------------------------------------- kinematic
-
-
-class KinematicObjective:
-    """Sec. V-A / V-B objectives over the state q^t (8) and control q^(t+1), boxes fixed.
-
-    ``mode`` "pre": w_static_hull c_static_hull + w_dynamic c_dynamic (not the target) + w_vel
-    c_vel per interval, c_grasp to
-    ``p_pregrasp`` and c_grp_horiz at the end, their Table II
-    weights times ``pre_terminal_weight`` (they stand in for the baseline's hard constraint).
-    ``mode`` "post": w_static c_static (the mean over ``post_substeps`` configurations of
-    the interval up to q^(t+1)) + w_match c_match + w_match_vel c_match_vel
-    against ``q_ref`` (T + 1, 8), + w_speed c_speed over knots ``knot_time`` (s) apart (ours:
-    pushing the arm out of the shelf made fig5's plan exceed a joint speed limit, measured).
-    """
-
-    def __init__(self, geometry: ArmGeometry, config: PhysicsConfig, mode: str, d_safe: float,
-                 target: str, q_ref: np.ndarray | None = None,
-                 p_pregrasp: np.ndarray | None = None, w_static_hull: float = 80.0,
-                 w_vel: float = 1.0, knot_time: float = 0.2):
-        if mode not in ("pre", "post"):
-            raise ValueError(f"mode must be 'pre' or 'post', got {mode!r}")
-        self.geometry, self.config, self.mode, self.d_safe = geometry, config, mode, d_safe
-        self.target, self.q_ref, self.p_pregrasp = target, q_ref, p_pregrasp
-        self.w_static_hull, self.w_vel = w_static_hull, w_vel
-        self._max_step = max_steps(config, knot_time)
-
-    def running(self, t: int, q: np.ndarray, u: np.ndarray) -> dict[str, Term]:
-        """Weighted Terms over (q, u) (16,) of interval t."""
-        cfg, eye = self.config, np.eye(ARM_DIM)
-        if self.mode == "pre":
-            hull = segment_penetration(self.geometry, q, u, cfg.hull_substeps, self.d_safe,
-                                       (self.target,), spacing=cfg.sweep_spacing)
-            return {"static_hull": hull["shelf"].scaled(self.w_static_hull),
-                    "dynamic": hull["boxes"].scaled(cfg.w_dynamic),
-                    "vel": _reorder(costs.velocity(u, q)).scaled(self.w_vel)}
-        swept = segment_penetration(self.geometry, q, u, cfg.post_substeps, self.d_safe,
-                                    shelf_only=True, spacing=cfg.sweep_spacing)
-        on_u = np.hstack([np.zeros((ARM_DIM, ARM_DIM)), eye])
-        match = costs.match(u, self.q_ref[t + 1])
-        mvel = costs.match_velocity(u, q, self.q_ref[t + 1], self.q_ref[t])
-        out = {"static": swept["shelf"].scaled(cfg.w_static),
-               "match": match.pulled(on_u).scaled(cfg.w_match),
-               "match_vel": _reorder(mvel).scaled(cfg.w_match_vel),
-               "speed": speed_limit(q, u, self._max_step).scaled(cfg.w_speed)}
-        return out
-
-    def terminal(self, q: np.ndarray) -> dict[str, Term]:
-        """Weighted Terms over q (8,) at the last knot ("pre" only)."""
-        if self.mode != "pre":
-            return {}
-        p, axis_z, dp, dz = self.geometry.tool(q)
-        grasp = costs.grasp(p, dp, self.p_pregrasp)
-        grasp = Term(grasp.value, grasp.gradient[:ARM_DIM], grasp.hessian[:ARM_DIM, :ARM_DIM])
-        w = self.config.pre_terminal_weight
-        return {"grasp": grasp.scaled(w * self.config.w_grasp),
-                "grp_horiz": costs.gripper_horizontal(axis_z, dz).scaled(
-                    w * self.config.w_grp_horiz)}
-
-    def terms(self, qs: np.ndarray, us: np.ndarray) -> dict[str, float]:
-        """Weighted value of every term over the path."""
-        out: dict[str, float] = {}
-        for t in range(len(us)):
-            for name, term in self.running(t, qs[t], us[t]).items():
-                out[name] = out.get(name, 0.0) + term.value
-        for name, term in self.terminal(qs[-1]).items():
-            out[name] = term.value
-        return out
-
-    def quadratize(self, qs: np.ndarray, us: np.ndarray) -> Expansion:
-        """Expansion over (q, u)."""
-        T, n = len(us), ARM_DIM
-        lx, lu = np.zeros((T, n)), np.zeros((T, n))
-        lxx, luu, lux = np.zeros((T, n, n)), np.zeros((T, n, n)), np.zeros((T, n, n))
-        for t in range(T):
-            for term in self.running(t, qs[t], us[t]).values():
-                lx[t] += term.gradient[:n]
-                lu[t] += term.gradient[n:]
-                lxx[t] += term.hessian[:n, :n]
-                luu[t] += term.hessian[n:, n:]
-                lux[t] += term.hessian[n:, :n]
-        vx, vxx = np.zeros(n), np.zeros((n, n))
-        for term in self.terminal(qs[-1]).values():
-            vx += term.gradient
-            vxx += term.hessian
-        return Expansion(lx, lu, lxx, luu, lux, vx, vxx)
-
-
-def _reorder(term: Term) -> Term:
-    """A Term over (u, q) as one over (q, u)."""
-    n = len(term.gradient) // 2
-    p = np.r_[np.arange(n, 2 * n), np.arange(n)]
-    return Term(term.value, term.gradient[p], term.hessian[np.ix_(p, p)])

@@ -1,9 +1,15 @@
-"""A phi stage's problem (Sec. V): phi as iLQR's dynamics over the augmented state
+"""Sec. V's phi stages: iLQR through phi from a knot path (`physics_stage`, with the restart
+from the start path of `phi_stage_or_restart`), and ``select``'s reading of several paths in
+one phi (`select_path`).
+
+A stage's problem (`stage_problem`): phi as iLQR's dynamics over the augmented state
 z = [x, q^(t-1)] (`AugmentedPhi`, its line-search forward passes run in the derivative workers),
 the objective with the knots held after Delta (`HoldTail`), the cap on phi's box-to-box
-Jacobians (`cap_spectral_radius`), and `stage_problem`, which builds them for a scene and a knot
-path: pruned phi, boxes settled at the start, the arm variant's cost geometry. `physics` runs
-iLQR on it (`pipeline.physics_stage`).
+Jacobians (`cap_spectral_radius`); built for a scene and a knot path: pruned phi, boxes settled
+at the start, the arm variant's cost geometry. iLQR runs on z in tangent coordinates
+(`ilqr.solve`, or the B-spline controls of `spline.solve_spline` with ``controls`` "spline"),
+its controls within `limits.knot_bounds`. Knot paths are (T + 1, 8): the arm's 7 angles (rad)
+and the gripper opening (m); times in s.
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from drake_clutter.common.config import Config
 from drake_clutter.phi.derivatives import PhiDynamics
 from drake_clutter.phi.dynamics import initial_state, make_spec
 from drake_clutter.phi.pruning import make_pruned_spec
@@ -20,8 +27,11 @@ from drake_clutter.phi.state import ARM_DIM, BOX_TANGENT, StateLayout, scene_box
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import grasp_offset
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.physics.objective import PhysicsObjective, pregrasp_aim
-from drake_clutter.solvers import ilqr
+from drake_clutter.planners.geometry import pregrasp_aim
+from drake_clutter.planners.physics.limits import GRIPPER, knot_bounds, solver_settings
+from drake_clutter.planners.physics.objective import PhysicsObjective
+from drake_clutter.solvers import ilqr, spline
+from drake_clutter.trajectory import spline_basis
 
 PARKED_TARGET = (0.0, 0.0, -10.0)  # m, where the sphere stage welds the target in phi (away
 # from everything: out of the simulation)
@@ -298,3 +308,125 @@ def stage_problem(context: PlanningContext, q: np.ndarray, variant: str,
                                  per_box)
         yield StageProblem(dynamics, augmented, objective, np.concatenate([x0, q[0]]), report,
                            held)
+
+
+class PhiFailure(RuntimeError):
+    """phi could not simulate a stage's initial path."""
+
+
+def physics_stage(context: PlanningContext, q: np.ndarray, variant: str, iterations: int,
+                  pool: WorkerPool | None = None, times: np.ndarray | None = None,
+                  alternatives: tuple[np.ndarray, ...] = (), min_opening: float | None = None,
+                  deadline: float | None = None, aim_T: np.ndarray | None = None
+                  ) -> tuple[np.ndarray, ilqr.ILQRResult, dict]:
+    """iLQR through phi (``variant`` arm) from the knot path ``q`` (T + 1, 8) at ``times`` (s;
+    default: ``baseline.knot_time`` apart): the new path, the solver's result and what the
+    stage used (kept boxes, pruning, phi statistics). With ``alternatives`` (paths of the same
+    shape and start), iLQR starts from whichever of ``q`` and them has the lowest objective in
+    this stage's phi (pruned for all of them); info's ``start_objectives`` lists them.
+    ``min_opening``: the last knot's least gripper opening
+    (m, `knot_bounds`); ``deadline``: see `solver_settings`; ``aim_T``: c_grasp's point in
+    the target's frame (`geometry.pregrasp_aim`; default: ``q``'s last knot's)."""
+    config = context.config
+    knot_time = _knot_time(times, config)
+    with stage_problem(context, q, variant, pool, knot_time, also=tuple(alternatives),
+                       aim_T=aim_T) as problem:
+        augmented, objective, z0 = problem.augmented, problem.objective, problem.z0
+        starts = [q, *alternatives]
+        basis = None
+        if config.physics.controls == "spline":
+            basis = spline_basis(len(q), config.physics.control_points,
+                                 config.baseline.opt_spline_order)
+            starts = [spline_path(basis, path) for path in starts]
+        values = [_path_objective(augmented, objective, z0, path) for path in starts]
+        if not np.any(np.isfinite(values)):
+            raise PhiFailure("phi failed on the initial rollout")
+        q = starts[int(np.argmin(values))]
+        bounds = knot_bounds(q, min_final_opening=min_opening)
+        settings = solver_settings(config, iterations, knot_time, bounds, deadline)
+        if basis is None:
+            result = ilqr.solve(augmented, objective, z0, q[1:], settings,
+                                difference=augmented.difference)
+        else:
+            result = spline.solve_spline(augmented, objective, z0, q[1:], basis, q[0],
+                                         settings, difference=augmented.difference)
+        info = {"kept_boxes": list(augmented.layout.box_names),
+                "pruning": problem.report.summary(),
+                "phi_failures": problem.dynamics.phi.failures,
+                "autodiff_fallbacks": problem.dynamics.autodiff_fallbacks,
+                "start_objectives": [float(v) for v in values]}
+    return np.vstack([q[:1], result.us]), result, info
+
+
+def spline_path(basis: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The knot path (T + 1, 8) nearest ``q`` (least squares) among the B-splines of ``basis``
+    (T + 1, P + 1) that start at q[0]; a path that already is one comes back unchanged."""
+    controls = spline.SplineControls(basis, q[0])
+    return np.vstack([q[:1], controls.controls(controls.fit(q[1:]))])
+
+
+def path_terms(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.ndarray,
+               q: np.ndarray) -> dict[str, float] | None:
+    """A phi stage's objective per Table I term for the knot path ``q`` (T + 1, 8) rolled out
+    from z0; None where phi's rollout is not finite."""
+    zs = ilqr.rollout(dynamics, z0, q[1:])
+    if not np.all(np.isfinite(zs)):
+        return None
+    return {k: float(v) for k, v in objective.terms(zs, q[1:]).items()}
+
+
+def _path_objective(dynamics: AugmentedPhi, objective: PhysicsObjective, z0: np.ndarray,
+                    q: np.ndarray) -> float:
+    """The stage's objective of the knot path ``q`` rolled out from z0 (inf where phi fails)."""
+    terms = path_terms(dynamics, objective, z0, q)
+    return float("inf") if terms is None else float(sum(terms.values()))
+
+
+def _knot_time(times: np.ndarray | None, config: Config) -> float:
+    """The knots' spacing (s): of ``times``, else ``baseline.knot_time``."""
+    return float(np.diff(times[:2])[0]) if times is not None else config.baseline.knot_time
+
+
+def select_path(context: PlanningContext, paths: dict[str, np.ndarray], pool=None,
+                times: np.ndarray | None = None, aim_T: np.ndarray | None = None
+                ) -> tuple[str, dict]:
+    """The name of the knot path (each (T + 1, 8), one start) with the lowest objective of the
+    full stage (capsule arm, hold tail) in one phi pruned for all ``paths``, and what was
+    measured: each path's objective (None where phi fails) and the pruning. Ties go to the
+    earlier name; when phi fails on every path, the first. ``aim_T``: c_grasp's point in the
+    target's frame (default: the first path's last knot's)."""
+    knot_time = _knot_time(times, context.config)
+    names = list(paths)
+    first, *others = (paths[n] for n in names)
+    with stage_problem(context, first, "capsules", pool, knot_time, also=tuple(others),
+                       aim_T=aim_T) as problem:
+        values = {n: _path_objective(problem.augmented, problem.objective, problem.z0,
+                                     paths[n]) for n in names}
+        pruning = problem.report.summary()
+    chosen = min(names, key=lambda n: (values[n], names.index(n)))
+    finite = {n: (v if np.isfinite(v) else None) for n, v in values.items()}
+    return chosen, {"objectives": finite, "chosen": chosen, "pruning": pruning}
+
+
+def phi_stage_or_restart(context: PlanningContext, paths: tuple[np.ndarray, np.ndarray],
+                          variant: str, iterations: int, pool, times,
+                          alternatives: tuple[np.ndarray, ...] = (),
+                          deadline: float | None = None, aim_T: np.ndarray | None = None):
+    """`physics_stage` from ``paths[0]`` (or the best of ``alternatives``, see there); if phi
+    cannot simulate any of them, from ``paths[1]`` (the baseline's path: phi failed on paths
+    the pre-processing or sphere stage produced with the hydroelastic phi, measured on
+    fig7); its info says which."""
+    opening = (float(paths[1][-1, GRIPPER]) if context.config.physics.keep_open else None)
+    try:
+        q, result, info = physics_stage(context, paths[0], variant, iterations, pool,
+                                        times, alternatives, opening, deadline, aim_T=aim_T)
+        best = int(np.argmin(info["start_objectives"]))
+        return q, result, {**info, "started_from": "previous stage" if best == 0 else
+                           f"alternative {best}"}
+    except PhiFailure as exc:
+        if np.array_equal(paths[0], paths[1]):
+            raise
+        q, result, info = physics_stage(context, paths[1], variant, iterations, pool,
+                                        times, min_opening=opening, deadline=deadline,
+                                        aim_T=aim_T)
+        return q, result, {**info, "started_from": f"baseline ({exc})"}

@@ -1,7 +1,7 @@
 """The push planner (beyond the paper): per approach angle, the baseline's straight path at
 each grasp height and yaw of ``physics.grasp_heights`` and ``physics.approach_offsets``
 (`starts.height_candidates`); the first of them that keeps off the boxes
-(`clear_starts`, with ``push_search.clear_first``), else the sampling search over the push
+(`geometry.clear_paths`, with ``push_search.clear_first``), else the sampling search over the push
 family from them all, scored by the judge in phi (`search.run_search`).
 
 The scene's planning worlds are built once (`context.PlanningContext`) and serve every angle. A
@@ -23,7 +23,7 @@ from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.geometry import ArmGeometry, box_depths, contact_flags
+from drake_clutter.planners.geometry import clear_paths
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.planners.selection import FALLBACK
 from drake_clutter.planners.starts import height_candidates, start_key
@@ -64,7 +64,7 @@ def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
     found = height_candidates(context, candidate)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
     timings = {"heights": time.perf_counter() - tic}
-    clear = clear_starts(scene, starts, config, geometry) if (
+    clear = clear_paths(geometry, starts, config, scene.target) if (
         config.push_search.clear_first) else []
     if clear:
         details = {"initialization": candidate.planner, "clear": clear, "chosen": clear[0]}
@@ -90,15 +90,6 @@ def reads_a_grasp(verdict: dict) -> bool:
     """Whether a judged path's verdict summary (`search.run_search`'s record) reads success or
     partial success in any member of phi."""
     return any(kind in ("success", "partial_success") for kind in verdict["kinds"])
-
-
-def clear_starts(scene: Scene, starts: dict[str, np.ndarray], config: Config,
-                 geometry: ArmGeometry) -> list[str]:
-    """The starts (in order) whose path neither presses on a box's top deeper than
-    ``physics.press_tolerance`` nor enters a non-target box's side deeper than
-    ``physics.side_tolerance``, with the boxes at rest (`geometry.contact_flags`)."""
-    flags = contact_flags(box_depths(geometry, starts, config, scene.target), config)
-    return [name for name, found in flags.items() if not any(found)]
 
 
 def push_table(candidates: list[Candidate]) -> str:

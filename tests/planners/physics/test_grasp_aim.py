@@ -20,8 +20,8 @@ from drake_clutter.phi.dynamics import initial_state
 from drake_clutter.phi.state import StateLayout, pose_to_box_state, scene_box_states
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.geometry import ArmGeometry
-from drake_clutter.planners.physics.objective import PhysicsObjective, pregrasp_aim
+from drake_clutter.planners.geometry import ArmGeometry, pregrasp_aim
+from drake_clutter.planners.physics.objective import PhysicsObjective
 from drake_clutter.planners.physics.stage import stage_problem
 from drake_clutter.robot import pr2
 

@@ -22,7 +22,8 @@ from drake_clutter.phi.state import (
 )
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import SHELF, ArmGeometry, path_depths, path_press
-from drake_clutter.planners.physics.objective import KinematicObjective, PhysicsObjective
+from drake_clutter.planners.physics.kinematic import KinematicObjective
+from drake_clutter.planners.physics.objective import PhysicsObjective
 from drake_clutter.planners.physics.penetration import (
     segment_penetration,
 )
@@ -300,7 +301,8 @@ def test_acc_term_matches_differences(physics_problem):
 
 
 def test_speed_limit_term_matches_differences():
-    from drake_clutter.planners.physics.objective import max_steps, speed_limit
+    from drake_clutter.planners.physics.limits import max_steps
+    from drake_clutter.planners.physics.objective import speed_limit
 
     limit = max_steps(PhysicsConfig(), 0.2)
     q = Q_PREGRASP
@@ -362,7 +364,7 @@ def test_postprocessing_clears_the_board_between_knots(scene):
     import dataclasses
 
     from drake_clutter.common.config import Config
-    from drake_clutter.planners.physics.pipeline import postprocess
+    from drake_clutter.planners.physics.kinematic import postprocess
 
     geometry = ArmGeometry(scene, "evaluation")
 
@@ -448,7 +450,7 @@ def fig5_candidate(scene):
 
 def test_preprocessing_keeps_the_pregrasp(scene, geometry, fig5_candidate):
     from drake_clutter.common.config import Config
-    from drake_clutter.planners.physics.pipeline import preprocess
+    from drake_clutter.planners.physics.kinematic import preprocess
 
     q0 = fig5_candidate.trajectory.q
     q, result = preprocess(PlanningContext(scene, Config()), q0)
@@ -461,7 +463,7 @@ def test_preprocessing_keeps_the_pregrasp(scene, geometry, fig5_candidate):
 
 
 def test_knot_bounds_pin_the_last_knot_and_the_gripper():
-    from drake_clutter.planners.physics.pipeline import GRIPPER, control_bounds, knot_bounds
+    from drake_clutter.planners.physics.limits import GRIPPER, control_bounds, knot_bounds
 
     rng = np.random.default_rng(0)
     low, high = (np.array(b) for b in control_bounds())
@@ -486,7 +488,7 @@ def test_pre_and_post_processing_keep_the_pregrasp_and_the_open_gripper(name):
     post-processing of that path on its last knot and openings."""
     from drake_clutter.common.config import load_config
     from drake_clutter.planners.baseline import plan_baseline
-    from drake_clutter.planners.physics.pipeline import postprocess, preprocess
+    from drake_clutter.planners.physics.kinematic import postprocess, preprocess
     from drake_clutter.scene.scenes import load_shipped_scene
 
     shipped = load_shipped_scene(name)
@@ -506,7 +508,8 @@ def test_pre_and_post_processing_keep_the_pregrasp_and_the_open_gripper(name):
 @pytest.mark.parametrize("controls", ["spline", "knots"])
 def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate, controls):
     from drake_clutter.common.config import load_config
-    from drake_clutter.planners.physics.pipeline import control_bounds, plan_physics
+    from drake_clutter.planners.physics.limits import control_bounds
+    from drake_clutter.planners.physics.pipeline import plan_physics
 
     config = load_config(None, ["physics.iterations=2", "physics.sphere_iterations=1",
                                 "physics.pre_iterations=2", "physics.post_iterations=2",
@@ -582,7 +585,8 @@ def test_a_time_budget_spent_in_a_phi_stage_keeps_that_stages_best_path(scene,
     select are left out, and the plan is the lowest-objective path the phi stage reached,
     within the joint bounds."""
     from drake_clutter.common.config import load_config
-    from drake_clutter.planners.physics.pipeline import control_bounds, plan_physics
+    from drake_clutter.planners.physics.limits import control_bounds
+    from drake_clutter.planners.physics.pipeline import plan_physics
 
     config = load_config(None, ["dynamics.workers=0", "physics.time_budget=3",
                                 "physics.iterations=30", "physics.sphere_iterations=10"])
@@ -608,7 +612,8 @@ def test_the_model_repairs_run_through_every_stage(scene, fig5_candidate):
     pipeline still plans, every accepted phi-stage step logs its model's decrease at its step
     size (positive) and the radius it was taken with, and no control leaves its bounds."""
     from drake_clutter.common.config import load_config
-    from drake_clutter.planners.physics.pipeline import control_bounds, plan_physics
+    from drake_clutter.planners.physics.limits import control_bounds
+    from drake_clutter.planners.physics.pipeline import plan_physics
 
     config = load_config(None, ["physics.iterations=3", "physics.sphere_iterations=1",
                                 "physics.pre_iterations=2", "physics.post_iterations=2",
@@ -633,8 +638,7 @@ def test_the_model_repairs_run_through_every_stage(scene, fig5_candidate):
 
 def test_phi_stages_get_the_trust_region_and_kinematic_ones_do_not():
     from drake_clutter.common.config import load_config
-    from drake_clutter.planners.physics.objective import max_steps
-    from drake_clutter.planners.physics.pipeline import solver_settings
+    from drake_clutter.planners.physics.limits import max_steps, solver_settings
 
     config = load_config(None, ["physics.step_limit_fraction=0.25",
                                 "physics.line_search_steps=4"])
@@ -650,7 +654,7 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
     from types import SimpleNamespace
 
     from drake_clutter.common.config import Config
-    from drake_clutter.planners.physics import pipeline as physics
+    from drake_clutter.planners.physics import stage as physics
 
     calls = []
 
@@ -664,11 +668,11 @@ def test_a_phi_stage_restarts_from_the_baseline_path_when_phi_fails(monkeypatch)
     monkeypatch.setattr(physics, "physics_stage", stage)
     previous, baseline = np.ones((3, 8)), np.zeros((3, 8))
     context = SimpleNamespace(config=Config())
-    q, _, info = physics._phi_stage_or_restart(context, (previous, baseline), "capsules", 1,
+    q, _, info = physics.phi_stage_or_restart(context, (previous, baseline), "capsules", 1,
                                                None, None)
     assert q is baseline and len(calls) == 2 and info["started_from"].startswith("baseline")
     with pytest.raises(physics.PhiFailure):  # nothing to fall back to
-        physics._phi_stage_or_restart(context, (previous, previous.copy()), "capsules", 1,
+        physics.phi_stage_or_restart(context, (previous, previous.copy()), "capsules", 1,
                                       None, None)
 
 
@@ -680,7 +684,7 @@ def test_select_path_takes_the_lowest_objective_ties_to_the_first(monkeypatch):
     from types import SimpleNamespace
 
     from drake_clutter.common.config import Config
-    from drake_clutter.planners.physics import pipeline as physics
+    from drake_clutter.planners.physics import stage as physics
 
     pruned_for = []
 
@@ -900,7 +904,7 @@ def test_parallel_line_search_gives_the_serial_phi_stage(scene, fig5_candidate):
     steps the in-process line search takes: the same path, objective history and log."""
     from drake_clutter.common.config import load_config
     from drake_clutter.phi.workers import WorkerPool
-    from drake_clutter.planners.physics.pipeline import physics_stage
+    from drake_clutter.planners.physics.stage import physics_stage
 
     q = fig5_candidate.trajectory.q
     runs = {}
@@ -925,7 +929,8 @@ def test_spline_controls_keep_a_phi_stage_on_the_baselines_spline(scene, fig5_ca
     the baseline's path (a spline of that basis) starts it unchanged, the objective never
     rises, and the result is still a spline from the same start within the joint limits."""
     from drake_clutter.common.config import load_config
-    from drake_clutter.planners.physics.pipeline import control_bounds, physics_stage, spline_path
+    from drake_clutter.planners.physics.limits import control_bounds
+    from drake_clutter.planners.physics.stage import physics_stage, spline_path
     from drake_clutter.trajectory import spline_basis
 
     config = load_config(None, ["dynamics.workers=0", "dynamics.derivative_stride=4",

@@ -44,7 +44,8 @@ from drake_clutter.planners.registry import (
     run_planners,
 )
 
-TIERS = ("smoke", "small", "paper", "behaviours", "probe", "probe_half", "heldout", "candidates")
+TIERS = ("smoke", "small", "paper", "behaviours", "probe", "probe_half", "heldout", "candidates",
+         "paper_protocol")
 TIER_PACKAGE = "drake_clutter.experiments.tiers"
 DEAD_WORKER = "planner_failure"  # the outcome kind of a unit whose worker died or raised
 

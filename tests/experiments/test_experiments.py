@@ -57,6 +57,7 @@ def test_tiers_load_and_expand():
     assert counts["smoke"] < counts["small"] < counts["paper"]
     assert counts["behaviours"] == 4 * 6 * 2  # scenes x angles x planners
     assert counts["probe"] == 24 * 4 * 2  # scenes x angles x planners
+    assert counts["paper_protocol"] == 24 * 14 * 2  # the probe's scenes x all 14 angles
     assert counts["probe_half"] == 24 * 2 * 2
     assert counts["heldout"] == 24 * 2 * 2
     assert counts["candidates"] == 4 * 6 * 15  # scenes x angles x configurations
@@ -86,6 +87,9 @@ def test_probe_tier_draws_paper_scenes_at_four_levels_per_environment_robustly()
     assert len([k for k, _ in levels if k == "fridge"]) == 4
     config = resolve_config(spec, "defaults", path)
     assert config.evaluation.robust_replays == 8
+    protocol, ppath = load_spec("paper_protocol")
+    assert {u.scene for u in expand(protocol, ppath)} == {u.scene for u in units}
+    assert resolve_config(protocol, "defaults", ppath).evaluation.robust_replays == 8
     behaviours, bpath = load_spec("behaviours")
     assert resolve_config(behaviours, "defaults", bpath).evaluation.robust_replays == 8
 

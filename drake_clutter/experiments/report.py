@@ -158,6 +158,35 @@ def table_iv(rows: list[dict]) -> list[dict]:
     return out
 
 
+def table_levels(rows: list[dict]) -> list[dict]:
+    """Tables III and IV per clutter level: per group, environment and number of objects, the
+    scenes and their % of success, partial success and failure (a scene scored by its best
+    angle, as Table III), the robust judge's scene success (the best angle's P(success)), and
+    the trajectories (units with a plan) with each outcome class's % of them (as Table IV)."""
+    out = []
+    for (config, planner), group in groups(rows).items():
+        scores = scene_scores(group)
+        robust = robust_scene_success(group)
+        for env in ENVIRONMENTS:
+            for n in sorted({m for e, m, _ in scores.values() if e == env}):
+                names = [s for s, (e, m, _) in scores.items() if e == env and m == n]
+                chosen = [scores[s][2] for s in names]
+                success, partial = chosen.count("success"), chosen.count("partial_success")
+                kinds = [r["kind"] for r in group if r["env"] == env and r["num_objects"] == n
+                         and r["kind"] != "planner_failure"]
+                out.append({"configuration": config, "planner": planner, "environment": env,
+                            "num_objects": n, "scenes": len(names),
+                            "success_pct": percent(success, len(names)),
+                            "partial_pct": percent(partial, len(names)),
+                            "failure_pct": percent(len(names) - success - partial, len(names)),
+                            "robust_success_pct": percent(sum(robust[s] for s in names),
+                                                       len(names)),
+                            "trajectories": len(kinds),
+                            **{f"trajectory_{k}_pct": percent(kinds.count(k), len(kinds))
+                               for k in TRAJECTORY_KINDS}})
+    return out
+
+
 def _init_seconds(row: dict) -> float | None:
     """Planning seconds of one initialization (see the module docstring), None if none."""
     timings = row.get("timings") or {}
@@ -323,6 +352,22 @@ def markdown_table_iv(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def markdown_table_levels(table: list[dict]) -> str:
+    """`table_levels` as Markdown: scene shares (Table III) and trajectory classes (Table IV)."""
+    classes = " | ".join(TRAJECTORY_KINDS)
+    lines = [f"| configuration | planner | environment | objects | scenes | success | partial | "
+             f"failure | robust success | trajectories | {classes} |",
+             "|---|---|---|---:|---:|---:|---:|---:|---:|---:|" + "---:|" * len(TRAJECTORY_KINDS)]
+    for r in table:
+        scenes = " | ".join(format_percent(r[k]) for k in
+                            ("success_pct", "partial_pct", "failure_pct", "robust_success_pct"))
+        shares = " | ".join(format_percent(r[f"trajectory_{k}_pct"]) for k in TRAJECTORY_KINDS)
+        lines.append(f"| {r['configuration']} | {r['planner']} | {ENV_LABELS[r['environment']]}"
+                     f" | {r['num_objects']} | {r['scenes']} | {scenes} | {r['trajectories']} | "
+                     f"{shares} |")
+    return "\n".join(lines)
+
+
 def markdown_fig9(data: list[dict]) -> str:
     """Fig. 9's points as a Markdown table."""
     lines = ["| configuration | planner | environment | objects | scenes | success | "
@@ -427,7 +472,8 @@ def physics_configurations(rows: list[dict]) -> list[str]:
 def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
                  config: ReportConfig | None = None,
                  reference: str | None = None) -> dict[str, Path]:
-    """Writes report.md, table3.{md,csv}, table4.{md,csv}, fig9.csv, fig9a/b/c.png, fig9.png
+    """Writes report.md, table3.{md,csv}, table4.{md,csv}, levels.csv (`table_levels`),
+    fig9.csv, fig9a/b/c.png, fig9.png
     (the three panels together), paired.csv (physics against the baseline per
     initialization), configurations.csv (every other physics configuration against the
     ``reference`` one per initialization; default the store's first, when it has two or more),
@@ -447,7 +493,8 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     t3, t4, f9 = table_iii(rows), table_iv(rows), fig9_data(rows)
     paths = {"table3.md": out / "table3.md", "table4.md": out / "table4.md",
              "table3.csv": out / "table3.csv", "table4.csv": out / "table4.csv",
-             "fig9.csv": out / "fig9.csv", "paired.csv": out / "paired.csv",
+             "fig9.csv": out / "fig9.csv", "levels.csv": out / "levels.csv",
+             "paired.csv": out / "paired.csv",
              "stages.csv": out / "stages.csv", "selected.csv": out / "selected.csv",
              "smoothness.csv": out / "smoothness.csv",
              "report.md": out / "report.md"}
@@ -457,6 +504,8 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     _write_csv(paths["table3.csv"], t3)
     _write_csv(paths["table4.csv"], t4)
     _write_csv(paths["fig9.csv"], f9)
+    levels = table_levels(rows)
+    _write_csv(paths["levels.csv"], levels)
     pairs = paired_rows(rows)
     _write_csv(paths["paired.csv"], pairs)
     against, reference_pairs = [], []
@@ -495,6 +544,11 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "## Table IV: trajectory outcomes (Sec. VI-B)", "",
             f"Percentages of the trajectories each planner returned (paper: "
             f"{PAPER_TRAJECTORIES} per algorithm).", "", md4, "",
+            "## Tables III and IV per clutter level", "",
+            "Per level: the scenes' shares as Table III (best angle; failure: neither success "
+            "nor partial) and the robust judge's scene success, then the trajectories' outcome "
+            "classes as Table IV. The paper gives these per level only as Fig. 9's curves. "
+            "Per level: levels.csv.", "", markdown_table_levels(levels), "",
             "## Fig. 9: success and time per initialization against clutter", "",
             "![Fig. 9](fig9.png)", "",
             markdown_fig9(f9), "", PAPER_FIG9_NOTE, "",

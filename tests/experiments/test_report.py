@@ -38,6 +38,7 @@ from drake_clutter.experiments.report import (
     selection_score,
     table_iii,
     table_iv,
+    table_levels,
     write_report,
 )
 from drake_clutter.experiments.store import Store
@@ -104,6 +105,23 @@ def test_table_iv_counts_trajectories_only(tmp_path):
     assert base["failure_to_grasp"]["pct"] == pytest.approx(300 / 7)
     assert sum(r["pct"] for k, r in base.items() if k != "planner_failure") == pytest.approx(100)
     assert base["success"]["paper_pct"] == 36.9
+
+
+def test_levels_table_splits_tables_iii_and_iv_by_clutter_level(tmp_path):
+    levels = table_levels(_fill(tmp_path / "r.db"))
+    fridge2 = _by(levels, planner="physics", environment="fridge", num_objects=2)[0]
+    # Physics at fridge 2: s0 partial (partial, kinematic), s1 success (failure, success).
+    assert fridge2["scenes"] == 2 and fridge2["success_pct"] == 50.0
+    assert fridge2["partial_pct"] == 50.0 and fridge2["failure_pct"] == 0.0
+    assert fridge2["trajectories"] == 4 and fridge2["trajectory_success_pct"] == 25.0
+    assert fridge2["trajectory_partial_success_pct"] == 25.0
+    assert fridge2["trajectory_failure_to_grasp_pct"] == 25.0
+    fridge8 = _by(levels, planner="baseline", environment="fridge", num_objects=8)[0]
+    assert fridge8["failure_pct"] == 100.0 and fridge8["trajectories"] == 0
+    # Every level of the store, once per planner; the shares of each level sum to 100.
+    assert len(levels) == 2 * 4
+    for r in levels:
+        assert r["success_pct"] + r["partial_pct"] + r["failure_pct"] == pytest.approx(100)
 
 
 def _png_size(path) -> tuple[int, int]:

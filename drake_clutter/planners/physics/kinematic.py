@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from drake_clutter.common.config import PhysicsConfig
+from drake_clutter.common.config import Config, PhysicsConfig
 from drake_clutter.phi.state import ARM_DIM
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import ArmGeometry
@@ -143,12 +143,8 @@ def preprocess(context: PlanningContext, q_init: np.ndarray, deadline: float | N
         geometry, config.physics, "pre", config.baseline.d_safe, scene.target,
         p_pregrasp=geometry.tool(q_init[-1])[0], w_static_hull=config.baseline.w_static_hull,
         w_vel=config.baseline.w_vel)
-    keep = config.physics.pre_keep_pregrasp
-    bounds = knot_bounds(q_init, last_knot=keep, gripper=keep)
-    settings = solver_settings(config, config.physics.pre_iterations, bounds=bounds,
-                               deadline=deadline)
-    result = ilqr.solve(KinematicArm(), objective, q_init[0], q_init[1:], settings)
-    return result.xs, result
+    return _solve(objective, q_init, config.physics.pre_keep_pregrasp,
+                  config.physics.pre_iterations, config, deadline)
 
 
 def postprocess(context: PlanningContext, q_ref: np.ndarray, deadline: float | None = None
@@ -160,9 +156,15 @@ def postprocess(context: PlanningContext, q_ref: np.ndarray, deadline: float | N
     objective = KinematicObjective(geometry, config.physics, "post", config.baseline.d_safe,
                                    scene.target, q_ref=q_ref,
                                    knot_time=config.baseline.knot_time)
-    keep = config.physics.post_keep_end
-    bounds = knot_bounds(q_ref, last_knot=keep, gripper=keep)
-    settings = solver_settings(config, config.physics.post_iterations, bounds=bounds,
-                               deadline=deadline)
-    result = ilqr.solve(KinematicArm(), objective, q_ref[0], q_ref[1:], settings)
+    return _solve(objective, q_ref, config.physics.post_keep_end,
+                  config.physics.post_iterations, config, deadline)
+
+
+def _solve(objective: KinematicObjective, q: np.ndarray, keep: bool, iterations: int,
+           config: Config, deadline: float | None) -> tuple[np.ndarray, ilqr.ILQRResult]:
+    """Kinematic iLQR from the knot path ``q`` (T + 1, 8) under ``objective``: with ``keep``,
+    the last knot and every gripper opening pinned to q's (`limits.knot_bounds`)."""
+    bounds = knot_bounds(q, last_knot=keep, gripper=keep)
+    settings = solver_settings(config, iterations, bounds=bounds, deadline=deadline)
+    result = ilqr.solve(KinematicArm(), objective, q[0], q[1:], settings)
     return result.xs, result

@@ -47,6 +47,13 @@ from drake_clutter.experiments.candidates import (
     candidate_rows,
     markdown_candidates,
 )
+from drake_clutter.experiments.figures import (
+    ENV_LABELS,
+    ENVIRONMENTS,
+    plot_combined,
+    plot_success,
+    plot_time,
+)
 from drake_clutter.experiments.paired import (
     bootstrap_interval,
     configuration_comparison,
@@ -70,8 +77,6 @@ from drake_clutter.experiments.plan_statistics import (
 )
 from drake_clutter.planners.selection import selection_score as planner_selection_score
 
-ENVIRONMENTS = ("bookshelf", "fridge")
-ENV_LABELS = {"bookshelf": "Bookshelf", "fridge": "Refrigerator", "aggregate": "Aggregate"}
 TRAJECTORY_KINDS = tuple(k for k in OUTCOME_KINDS if k != "planner_failure")
 
 # Table III (Sec. VI-B): % of scenes with success or partial success, (% partial success).
@@ -223,103 +228,6 @@ def fig9_data(rows: list[dict]) -> list[dict]:
                             "mean_seconds_per_init": sum(times) / len(times) if times
                             else None})
     return out
-
-
-# ----------------------------------------------------------------------------- figures
-
-
-def _axes_figure(title: str):
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(6.0, 4.0), dpi=100)
-    ax = fig.add_subplot()
-    ax.set_title(title)
-    return fig, ax
-
-
-def _draw_success(ax, data: list[dict], env: str) -> None:
-    """% scenes with success (solid), success or partial (dashed) and robust success (dotted:
-    the mean of each scene's best P(success)) against the number of objects, one colour per
-    (configuration, planner)."""
-    for i, (key, points) in enumerate(_series(data, env).items()):
-        x = [p["num_objects"] for p in points]
-        colour = f"C{i}"
-        ax.plot(x, [p["success_pct"] for p in points], "o-", color=colour,
-                label=f"{key[1]} ({key[0]}): success")
-        ax.plot(x, [p["success_or_partial_pct"] for p in points], "s--", color=colour,
-                alpha=0.6, label=f"{key[1]} ({key[0]}): success or partial")
-        ax.plot(x, [p["robust_success_pct"] for p in points], "^:", color=colour,
-                alpha=0.8, label=f"{key[1]} ({key[0]}): robust success")
-    ax.set_xlabel("number of objects")
-    ax.set_ylabel("scenes (%)")
-    ax.set_ylim(-5, 105)
-    ax.grid(True, alpha=0.3)
-    ax.legend(fontsize=7, loc="lower left")
-
-
-def _draw_time(ax, data: list[dict]) -> None:
-    """Mean planning time per initialization (s, log scale) against the number of objects."""
-    i = 0
-    for env in ENVIRONMENTS:
-        for key, points in _series(data, env).items():
-            points = [p for p in points if p["mean_seconds_per_init"] is not None]
-            if points:
-                ax.plot([p["num_objects"] for p in points],
-                        [p["mean_seconds_per_init"] for p in points], "o-", color=f"C{i}",
-                        label=f"{key[1]} ({key[0]}), {ENV_LABELS[env].lower()}")
-                i += 1
-    ax.set_xlabel("number of objects")
-    ax.set_ylabel("seconds per initialization")
-    ax.set_yscale("log")
-    ax.grid(True, alpha=0.3)
-    if i:
-        ax.legend(fontsize=7)
-
-
-def plot_success(data: list[dict], env: str, path: Path) -> Path:
-    """Fig. 9a (bookshelf) / 9b (fridge) as a PNG (see `_draw_success`)."""
-    letter = "a" if env == "bookshelf" else "b"
-    fig, ax = _axes_figure(f"Fig. 9{letter}: {ENV_LABELS[env]} (ours)")
-    _draw_success(ax, data, env)
-    fig.tight_layout()
-    fig.savefig(path, format="png")
-    return path
-
-
-def plot_time(data: list[dict], path: Path) -> Path:
-    """Fig. 9c as a PNG: mean planning time per initialization against the number of objects."""
-    fig, ax = _axes_figure("Fig. 9c: time per initialization (ours)")
-    _draw_time(ax, data)
-    fig.tight_layout()
-    fig.savefig(path, format="png")
-    return path
-
-
-def plot_combined(data: list[dict], path: Path) -> Path:
-    """Fig. 9 as the paper lays it out: (a), (b) and (c) side by side, one PNG."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(16.0, 4.5), dpi=100)
-    axes = fig.subplots(1, 3)
-    for ax, env, letter in ((axes[0], "bookshelf", "a"), (axes[1], "fridge", "b")):
-        ax.set_title(f"({letter}) {ENV_LABELS[env]}")
-        _draw_success(ax, data, env)
-    axes[2].set_title("(c) time per initialization")
-    _draw_time(axes[2], data)
-    fig.tight_layout()
-    fig.savefig(path, format="png")
-    return path
-
-
-def _series(data: list[dict], env: str) -> dict[tuple[str, str], list[dict]]:
-    out: dict[tuple[str, str], list[dict]] = {}
-    for p in data:
-        if p["environment"] == env:
-            out.setdefault((p["configuration"], p["planner"]), []).append(p)
-    return out
-
-
-# ----------------------------------------------------------------------------- text
 
 
 def markdown_table_iii(table: list[dict]) -> str:

@@ -57,7 +57,13 @@ def _cmd_scene_generate(args) -> int:
     config = _load_config(args)
     if args.objects < 1:
         raise InputError("<command line>", "--objects", f"must be at least 1, got {args.objects}")
-    scene = generate_scene(args.kind, args.objects, args.seed, config.generator)
+    if args.seed < 0:
+        raise InputError("<command line>", "--seed", f"must be non-negative, got {args.seed}")
+    try:
+        scene = generate_scene(args.kind, args.objects, args.seed, config.generator)
+    except GenerationError as exc:
+        raise InputError("<command line>", "--objects", f"{args.objects} boxes do not fit on "
+                         f"the {args.kind} board: {exc}") from None
     path = save_scene(scene, args.output)
     print(f"wrote {path} ({len(scene.boxes)} boxes, {scene.shelf.kind})")
     return 0

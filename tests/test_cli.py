@@ -59,6 +59,8 @@ def test_list_shows_every_shipped_scene(capsys):
     (["scene", "generate", "--kind", "cupboard", "--objects", "2", "--seed", "1", "-o", "x"],
      "invalid choice"),
     (["scene", "frobnicate"], "invalid choice"),
+    (["scene", "generate", "--kind", "fridge", "--objects", "2", "--seed", "-1", "-o", "x.yaml"],
+     "--seed"),
     (["scene", "generate", "--kind", "fridge", "--objects", "2", "--seed", "1", "-o",
       "/no/such/dir/x.yaml"], "cannot write"),
 ])
@@ -70,12 +72,15 @@ def test_bad_input_gives_one_line_and_exit_2(args, needle, tmp_path):
     assert "Traceback" not in result.stderr
 
 
-def test_impossible_generation_is_one_line_exit_1(tmp_path):
+def test_impossible_generation_is_bad_input(tmp_path):
+    """Too many boxes for the board is a bad --objects: one line, exit 2, no file."""
+    out = tmp_path / "x.yaml"
     result = _run("scene", "generate", "--kind", "fridge", "--objects", "40", "--seed", "1",
-                  "-o", str(tmp_path / "x.yaml"), "--set", "generator.max_attempts=1",
+                  "-o", str(out), "--set", "generator.max_attempts=1",
                   "--set", "generator.max_redraws_per_box=2")
-    assert result.returncode == 1 and "could not place" in result.stderr
-    assert len(result.stderr.strip().splitlines()) == 1
+    assert result.returncode == 2 and "could not place" in result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--objects" in lines[0] and not out.exists()
 
 
 def test_bad_scene_file_names_file_and_field(tmp_path):

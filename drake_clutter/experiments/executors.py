@@ -162,11 +162,12 @@ def run_experiment(spec, spec_file: str, db_path, executor: str = "local", worke
     import time
 
     from drake_clutter.common.config import config_to_data
-    from drake_clutter.experiments.specs import expand, resolve_config
+    from drake_clutter.experiments.specs import check_scenes, expand, resolve_config
     from drake_clutter.experiments.store import Store
 
     started = time.perf_counter()
     units = expand(spec, spec_file)
+    check_scenes(spec, spec_file)
     with Store(db_path) as store:
         for unit in {u.config_name: u for u in units}.values():
             config = resolve_config(spec, unit.config_name, spec_file)

@@ -227,13 +227,15 @@ def generate_scene(kind: ShelfKind, num_objects: int, seed: int,
     The target is placed first in its reach region; the other boxes are drawn, sorted by
     footprint area (largest first, so small boxes fill the gaps of a dense board) and each
     placed at a centre drawn uniformly from where it fits. Deterministic in ``seed``. Raises
-    ValueError for a bad count, GenerationError if the boxes cannot be placed.
+    ValueError for a bad count or a negative seed, GenerationError if the boxes cannot be placed.
     """
     config = config or GeneratorConfig()
     if kind not in ("bookshelf", "fridge"):
         raise ValueError(f"unknown shelf kind {kind!r} (bookshelf or fridge)")
     if num_objects < 1:
         raise ValueError(f"a scene needs at least 1 object (the target), got {num_objects}")
+    if seed < 0:
+        raise ValueError(f"the seed must be non-negative, got {seed}")
     rng = np.random.default_rng(seed)
     shelf = make_shelf(config, kind)
     robot = make_robot_placement(config)

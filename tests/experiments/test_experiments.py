@@ -134,6 +134,7 @@ def test_spec_units_and_hash(tmp_path):
     (TINY.replace("[dynamics.workers=0]", "[evaluation.sim_dt=-1]"),
      "overrides (evaluation.sim_dt)", "in (0, 0.01]"),
     (TINY.replace("levels: [1]", "levels: [0]"), "generated[0].levels", "at least 1"),
+    (TINY.replace("seeds: [2015]", "seeds: [2015, -1]"), "generated[0].seeds", "non-negative"),
     ("name: x\nplanners: [baseline]\n", "scene_set", "name some scenes"),
     (TINY + "ray_max_retries: -1\n", "ray_max_retries", "non-negative"),
 ])
@@ -152,6 +153,20 @@ def test_a_spec_with_a_judge_setting_out_of_range_writes_nothing(tmp_path, capsy
     assert main(["experiment", "run", str(path), "--db", str(db)]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "evaluation.sim_dt" in err
+    assert not db.exists()
+
+
+def test_a_spec_whose_boxes_do_not_fit_writes_nothing(tmp_path, capsys):
+    """A level the board cannot hold fails when the run starts, before a store exists."""
+    text = TINY.replace("{kind: bookshelf, levels: [1], seeds: [2015]}",
+                        "{kind: bookshelf, levels: [1], seeds: [2015]}\n"
+                        "  - {kind: fridge, levels: [40], seeds: [7]}")
+    path = _write(tmp_path, text + "configurations: {few: [generator.max_attempts=1, "
+                                   "generator.max_redraws_per_box=2]}\n")
+    db = tmp_path / "r.db"
+    assert main(["experiment", "run", str(path), "--db", str(db)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "generated[1]" in err and "40 boxes" in err
     assert not db.exists()
 
 

@@ -491,12 +491,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "robust judge grades that one: selected-plan "
             "P(success), per scene, beside the best angle's. Per configuration: selected.csv.",
             "", markdown_selected(selected, config), "",
-            "## The physics planner's phi stages (Sec. V)", "",
-            "Per phi stage: how many accepted at least one iLQR iteration, and for the accepted "
-            "steps the actual decrease of phi's objective over the quadratic model's at the "
-            "accepted step size (1: the model was right; the trust region clips steps after the "
-            "model). The plan is the best in phi of the post-processed, pre-processed and "
-            "baseline paths. Per stage: stages.csv.", "", markdown_stages(stages), "",
+            *_stages_section(stages),
             "## Smoothness of the plans", "",
             "Per plan the largest change of an arm joint's step from one knot to the next "
             "(second difference, rad): the baseline's plans are B-splines, the physics "
@@ -504,6 +499,18 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "configuration: smoothness.csv.", "", markdown_smoothness(smooth), ""]
     paths["report.md"].write_text("\n".join(text), encoding="utf-8")
     return paths
+
+
+def _stages_section(stages: list[dict]) -> list[str]:
+    """The phi stages' table as report lines; nothing for a store without phi stages."""
+    if not stages:
+        return []
+    return ["## The physics planner's phi stages (Sec. V)", "",
+            "Per phi stage: how many accepted at least one iLQR iteration, and for the accepted "
+            "steps the actual decrease of phi's objective over the quadratic model's at the "
+            "accepted step size (1: the model was right; the trust region clips steps after the "
+            "model). The plan is the best in phi of the post-processed, pre-processed and "
+            "baseline paths. Per stage: stages.csv.", "", markdown_stages(stages), ""]
 
 
 def _candidates_section(rows, reference, config, out, paths) -> list[str]:

@@ -138,6 +138,10 @@ def test_report_has_both_tables_and_four_figures(tmp_path, capsys):
     text = (out / "report.md").read_text()
     assert "Table III" in text and "Table IV" in text and "76.7% (8.3%)" in text
     assert "48.7%" in text  # the paper's Table IV beside ours
+    assert "phi stages (Sec. V)" in text  # physics plans: their stages' table
+    rows = [r for r in _fill(tmp_path / "b.db") if r["planner"] == "baseline"]
+    write_report(rows, tmp_path / "baseline_only")
+    assert "phi stages" not in (tmp_path / "baseline_only" / "report.md").read_text()
     with (out / "table3.csv").open() as f:
         assert len(list(csv.DictReader(f))) == 2 * 3
     with (out / "table4.csv").open() as f:

@@ -338,9 +338,9 @@ def _contribution(config: str, scene: str, pairs: list[dict], total: int) -> dic
 
 def markdown_contributions(table: list[dict]) -> str:
     """`scene_contributions` as Markdown: configuration, scene, its share of the mean
-    P(success) difference, and the differing pairs as baseline -> physics (kind, P)."""
+    P(success) difference, and the differing pairs as baseline -> planner (kind, P)."""
     lines = ["| configuration | scene | pairs (differing) | share of the P(success) difference "
-             "| baseline -> physics, where P(success) differs |",
+             "| baseline -> planner, where P(success) differs |",
              "|---|---|---:|---:|---|"]
     lines += [f"| {r['configuration']} | {r['scene']} | {r['pairs']} ({r['differing']}) | "
               f"{r['p_success_share']:+.3f} | {r['changes']} |" for r in table]

@@ -33,10 +33,10 @@ from pydrake.solvers import IpoptSolver, SnoptSolver, SolverOptions
 
 from drake_clutter.common.config import BaselineConfig
 from drake_clutter.robot import pr2
+from drake_clutter.robot.pr2 import ARM_DOF
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.worlds.drake_world import World, build_planning_world
 
-ARM_DOF = len(pr2.ARM_JOINTS)
 CONTINUOUS_JOINTS = tuple(i for i, name in enumerate(pr2.ARM_JOINTS)
                           if np.isinf(pr2.arm_joint_limits()[name][0]))
 # Links rigidly attached to the tool frame: their proxies set the grasp height and line l.
@@ -208,7 +208,7 @@ class PoseIk:
         lower = np.array([lo for lo, _ in pr2.arm_joint_limits().values()])
         upper = np.array([hi for _, hi in pr2.arm_joint_limits().values()])
         self.lower, self.upper = lower, upper
-        self.fingers = world.robot_q(np.zeros(ARM_DOF), pr2.GRIPPER_MAX_OPENING)[ARM_DOF:]
+        self.fingers = np.full(2, pr2.finger_joint_position(pr2.GRIPPER_MAX_OPENING))
 
     def _program(self, X_WG: RigidTransform, seed: np.ndarray, q_near: np.ndarray | None,
                  clear_of_shelf: bool):

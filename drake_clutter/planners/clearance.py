@@ -40,10 +40,10 @@ from pydrake.solvers import IpoptSolver, MathematicalProgram, SnoptSolver, Solve
 from drake_clutter.common.config import BaselineConfig
 from drake_clutter.planners.approach import CONTINUOUS_JOINTS, quiet_drake_warnings
 from drake_clutter.robot import pr2
+from drake_clutter.robot.pr2 import ARM_DOF
 from drake_clutter.trajectory import spline_basis
 from drake_clutter.worlds.drake_world import World
 
-ARM_DOF = len(pr2.ARM_JOINTS)
 OPENING = pr2.GRIPPER_MAX_OPENING  # m: the gripper stays fully open (Sec. V: c_grp_open)
 
 
@@ -77,7 +77,7 @@ class ShelfClearance:
         self.world, self.plant = world, world.plant
         self.root = world.diagram.CreateDefaultContext()
         self.context = self.plant.GetMyMutableContextFromRoot(self.root)
-        self.fingers = world.robot_q(np.zeros(ARM_DOF), OPENING)[ARM_DOF:]
+        self.fingers = np.full(2, pr2.finger_joint_position(OPENING))
         inspector = world.scene_graph.model_inspector()
         robot_frames = {self.plant.GetBodyFrameIdOrThrow(i): i
                         for i in self.plant.GetBodyIndices(world.robot)}

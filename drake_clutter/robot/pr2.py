@@ -71,6 +71,7 @@ PALM_LINK = "r_gripper_palm_link"
 ARM_JOINTS: tuple[str, ...] = (
     "r_shoulder_pan_joint", "r_shoulder_lift_joint", "r_upper_arm_roll_joint",
     "r_elbow_flex_joint", "r_forearm_roll_joint", "r_wrist_flex_joint", "r_wrist_roll_joint")
+ARM_DOF = len(ARM_JOINTS)  # the arm's joints, the planners' degrees of freedom
 FINGER_JOINTS: tuple[str, str] = ("r_gripper_l_finger_joint", "r_gripper_r_finger_joint")
 FINGER_LINKS: tuple[str, str] = ("r_gripper_l_finger_link", "r_gripper_r_finger_link")
 

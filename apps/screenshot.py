@@ -48,6 +48,9 @@ def main(argv=None) -> int:
     except InputError as exc:
         print(f"screenshot: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except RuntimeError as exc:
+        print(f"screenshot: error: {str(exc).splitlines()[0]}", file=sys.stderr)
+        return 1
     return 0
 
 

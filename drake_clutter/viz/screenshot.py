@@ -29,21 +29,37 @@ def chromium_path() -> str:
 
 
 def screenshot(html: Path, png: Path, window: tuple[int, int] = WINDOW,
-               budget_ms: int = BUDGET_MS, timeout_s: float = 180.0) -> Path:
+               budget_ms: int = BUDGET_MS, timeout_s: float = 120.0, tries: int = 2) -> Path:
     """Renders ``html`` in headless Chromium at ``window`` (width, height px) after
-    ``budget_ms`` of virtual time and writes ``png``; raises RuntimeError with Chromium's
-    last output when no picture was written."""
+    ``budget_ms`` of virtual time and writes ``png``. A Chromium that hangs past ``timeout_s``
+    is killed and started again, ``tries`` times in all (headless Chromium now and then never
+    exits on a loaded machine); raises RuntimeError with Chromium's last output when no picture
+    was written."""
     png = Path(png)
-    png.unlink(missing_ok=True)
+    for attempt in range(1, tries + 1):
+        png.unlink(missing_ok=True)
+        try:
+            result = _chromium(html, png, window, budget_ms, timeout_s)
+        except subprocess.TimeoutExpired:
+            if attempt == tries:
+                raise RuntimeError(f"chromium did not finish in {timeout_s:g} s, "
+                                   f"{tries} times") from None
+            continue
+        if not png.exists():
+            raise RuntimeError(f"chromium wrote no screenshot (exit {result.returncode}):\n"
+                               f"{result.stderr[-2000:]}")
+        return png
+    raise RuntimeError("tries must be at least 1")
+
+
+def _chromium(html: Path, png: Path, window: tuple[int, int], budget_ms: int,
+              timeout_s: float) -> subprocess.CompletedProcess:
+    """One headless Chromium run that writes ``png`` (a fresh profile each time)."""
     with tempfile.TemporaryDirectory() as profile:
-        result = subprocess.run(
+        return subprocess.run(
             [chromium_path(), "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
              "--no-first-run", "--disable-background-networking", "--disable-component-update",
              "--disable-sync", f"--user-data-dir={profile}",
              f"--window-size={window[0]},{window[1]}", f"--virtual-time-budget={budget_ms}",
              f"--screenshot={png.resolve()}", Path(html).resolve().as_uri()],
             capture_output=True, text=True, timeout=timeout_s)
-    if not png.exists():
-        raise RuntimeError(f"chromium wrote no screenshot (exit {result.returncode}):\n"
-                           f"{result.stderr[-2000:]}")
-    return png

@@ -235,10 +235,10 @@ def check_scenes(spec: ExperimentSpec, file="<spec>") -> None:
     configuration's generator settings), so that a run writes no store for it."""
     from drake_clutter.scene.generators import GenerationError, generate_scene
 
+    fields = {("generated", g.kind, n, seed): f"generated[{i}]"
+              for i, g in enumerate(spec.generated) for n in g.levels for seed in g.seeds}
     for name in spec.configurations:
         config = resolve_config(spec, name, file)
-        fields = {("generated", g.kind, n, seed): f"generated[{i}]"
-                  for i, g in enumerate(spec.generated) for n in g.levels for seed in g.seeds}
         for source in _scene_sources(spec, config):
             if source[0] != "generated":
                 continue

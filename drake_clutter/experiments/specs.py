@@ -233,7 +233,7 @@ def check_scenes(spec: ExperimentSpec, file="<spec>") -> None:
     """Builds every generated scene of the spec once (about 0.3 s each) and raises SpecError
     naming the spec's field if one cannot be placed (too many boxes for the board under the
     configuration's generator settings), so that a run writes no store for it."""
-    from drake_clutter.scene.generators import GenerationError, generate_scene
+    from drake_clutter.scene.generators import GenerationError
 
     fields = {("generated", g.kind, n, seed): f"generated[{i}]"
               for i, g in enumerate(spec.generated) for n in g.levels for seed in g.seeds}
@@ -244,7 +244,7 @@ def check_scenes(spec: ExperimentSpec, file="<spec>") -> None:
                 continue
             _, kind, n, seed = source
             try:
-                generate_scene(kind, n, seed, config.generator)
+                _build_scene(source, config)
             except (GenerationError, ValueError) as exc:
                 raise SpecError(file, fields.get(source, "scene_set"),
                                 f"{kind} scene with {n} boxes, seed {seed}: {exc}") from None

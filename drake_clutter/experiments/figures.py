@@ -103,5 +103,3 @@ def _series(data: list[dict], env: str) -> dict[tuple[str, str], list[dict]]:
             out.setdefault((p["configuration"], p["planner"]), []).append(p)
     return out
 
-
-# ----------------------------------------------------------------------------- text

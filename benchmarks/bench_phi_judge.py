@@ -1,53 +1,65 @@
 #!/usr/bin/env python3
-"""Benchmark of the judge in phi (beyond the paper): seconds to judge one search's paths,
-against the reference measured in the same run.
+"""Benchmark of the judge in phi (beyond the paper): paths judged per second, against a
+reference revision of the code measured in the same run, and the verdicts compared member by
+member.
 
-    python benchmarks/bench_phi_judge.py                                  # 2 probe inits
-    python benchmarks/bench_phi_judge.py --inits bookshelf:20:6016:4 --members 4
+    python benchmarks/bench_phi_judge.py                       # 8 probe inits, K = 4
+    python benchmarks/bench_phi_judge.py --reference HEAD~3 --inits bookshelf:20:6016:4
 
-Per initialization (kind:level:seed:angle of the probe tier's generator): the baseline's
-straight paths at the push planner's grasp heights and the search's first-round draws
-(`aim.draw`, seeded like the search), judged in the same K members of phi
-(``push_search.engine``) two ways:
-
-* **complete** (the reference): one phi per member, one rollout per path through its knots and
-  the hold, its jam measured on its own steps (`phi_judge.judged_rollouts`);
-* **short**: ``judge_paths(..., complete=False)``, the search's: no rollout for a plan its
-  checks fail, a rollout stops once its jam reads a kinematic failure.
-
-Printed per initialization and in total: seconds of each, the reference's over the short
-judge's, and the member readings that differ between them (0 expected: the same classes).
+The paths (fixed, seeded): per initialization (kind:level:seed:angle of the probe tier's
+generator), the baseline's straight paths at the push planner's grasp heights and the search's
+first-round draws (`aim.draw`, seeded like the search) that are feasible. They are built once
+with this checkout's code and saved; then each side judges all of them in the same K members
+of phi (``push_search.engine``) the way the search does (``judge_paths(..., complete=False)``),
+in one process per side, one side at a time, this checkout and the reference (a git revision,
+checked out into a temporary worktree) alternating ``--repeats`` times. Printed: per
+initialization and in total the paths, each side's seconds (the best of the repeats) and the
+ratio; then every member reading whose class differs, with both sides' findings (the reason).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
+import pickle
+import subprocess
+import sys
+import tempfile
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
-from drake_clutter.common.config import load_config
-from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.phi_judge import (
-    PhiVerdict,
-    judge_paths,
-)
-from drake_clutter.planners.push.aim import draw
-from drake_clutter.planners.push.search import Search
-from drake_clutter.planners.registry import get_planner
-from drake_clutter.planners.starts import height_candidates, start_key
-from drake_clutter.scene.generators import generate_scene
+DEFAULT_INITS = ("bookshelf:5:3015:4", "bookshelf:10:4015:4", "bookshelf:15:5016:6",
+                 "bookshelf:20:6016:9", "fridge:4:10015:6", "fridge:8:12016:7",
+                 "fridge:12:14015:4", "fridge:16:16017:9")
+DEFAULT_REFERENCE = "1270f4f"  # the judge before its bulk contact reading and pruning filters
+ROOT = Path(__file__).resolve().parents[1]
 
-DEFAULT_INITS = ("fridge:12:14015:4", "bookshelf:10:4015:4")
+
+def judge_config(config, members: int):
+    """``config`` with phi's engine and members as the search judges."""
+    return replace(config, dynamics=replace(config.dynamics, engine=config.push_search.engine),
+                   ensemble=replace(config.ensemble, members=members))
 
 
 def search_paths(item: str, config):
     """(scene, {name: knots (T + 1, 8)}, times (s)) of one initialization: the straight
     starts and the search's first-round draws that are feasible."""
+    from drake_clutter.planners.context import PlanningContext
+    from drake_clutter.planners.push.aim import draw
+    from drake_clutter.planners.push.search import Search
+    from drake_clutter.planners.registry import get_planner
+    from drake_clutter.planners.starts import height_candidates, start_key
+    from drake_clutter.scene.generators import generate_scene
+
     kind, level, seed, angle = item.split(":")
     scene = generate_scene(kind, int(level), int(seed), config.generator)
     (candidate,) = get_planner("baseline").plan(scene, config, [int(angle)])
+    if candidate.trajectory is None:
+        return scene, {}, None
     context = PlanningContext(scene, config)
     found = height_candidates(context, candidate)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
@@ -62,10 +74,59 @@ def search_paths(item: str, config):
     return scene, {n: s.q for n, s in search.samples.items()}, candidate.trajectory.times
 
 
-def differing(a: dict[str, PhiVerdict], b: dict[str, PhiVerdict]) -> int:
-    """Member readings whose class differs between two sets of verdicts."""
-    return sum(x.kind != y.kind for n in a for x, y in zip(a[n].readings, b[n].readings,
-                                                           strict=True))
+def judge_saved(paths_file: str, out_file: str, members: int, settings: list[str]) -> None:
+    """Judges the saved paths with the importable ``drake_clutter`` (``settings``: --set
+    overrides) and writes, per initialization, its seconds and every path's findings per
+    member (JSON)."""
+    from drake_clutter.common.config import load_config
+    from drake_clutter.planners.context import PlanningContext
+    from drake_clutter.planners.phi_judge import judge_paths
+
+    config = judge_config(load_config(None, ["dynamics.workers=0", *settings]), members)
+    with open(paths_file, "rb") as f:
+        saved = pickle.load(f)
+    out = {}
+    for item, (scene, paths, times) in saved.items():
+        geometry = PlanningContext(scene, config).arm()
+        tic = time.perf_counter()
+        verdicts = judge_paths(scene, paths, times, config, geometry, complete=False)
+        out[item] = {"seconds": time.perf_counter() - tic,
+                     "verdicts": {n: v.to_data() for n, v in verdicts.items()}}
+    Path(out_file).write_text(json.dumps(out))
+
+
+def run_side(source: Path, paths_file: str, members: int, settings: list[str]) -> dict:
+    """`judge_saved` in a fresh process with ``source``'s ``drake_clutter`` first on the path."""
+    with tempfile.NamedTemporaryFile(suffix=".json", delete=False) as f:
+        out_file = f.name
+    env = {**os.environ, "PYTHONPATH": str(source)}
+    subprocess.run([sys.executable, str(Path(__file__).resolve()), "--judge-only", paths_file,
+                    "--out", out_file, "--members", str(members), "--set", *settings],
+                   env=env, check=True,
+                   cwd=tempfile.gettempdir())
+    return json.loads(Path(out_file).read_text())
+
+
+def differences(new: dict, old: dict) -> list[str]:
+    """One line per member reading whose class differs, with both sides' findings."""
+    lines = []
+    for item, side in new.items():
+        for name, v in side["verdicts"].items():
+            w = old[item]["verdicts"][name]
+            for k, (a, b) in enumerate(zip(v["kinds"], w["kinds"], strict=True)):
+                if a != b:
+                    lines.append(f"{item} {name} member {k}: {b} -> {a}; reference "
+                                 f"{w['reasons'][k]!r} {w['findings'][k]}, now "
+                                 f"{v['reasons'][k]!r} {v['findings'][k]}")
+    return lines
+
+
+def jams_differing(new: dict, old: dict) -> int:
+    """Member findings whose jam measure (m) is not the same number on both sides."""
+    return sum(a["jam"] != b["jam"]
+               for item, side in new.items() for name, v in side["verdicts"].items()
+               for a, b in zip(v["findings"], old[item]["verdicts"][name]["findings"],
+                               strict=True))
 
 
 def main(argv=None) -> None:
@@ -73,29 +134,66 @@ def main(argv=None) -> None:
     parser.add_argument("--inits", nargs="+", default=list(DEFAULT_INITS),
                         help="kind:level:seed:angle (default: %(default)s)")
     parser.add_argument("--members", type=int, default=4, help="K (default: %(default)s)")
-    parser.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE")
+    parser.add_argument("--reference", default=DEFAULT_REFERENCE,
+                        help="git revision of the reference (default: %(default)s)")
+    parser.add_argument("--repeats", type=int, default=1, help="alternations (default: 1)")
+    parser.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
+                        help="overrides for this checkout's side only, e.g. "
+                        "ensemble.judge_threads=2")
+    parser.add_argument("--judge-only", metavar="PATHS", help=argparse.SUPPRESS)
+    parser.add_argument("--out", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    config = load_config(None, ["dynamics.workers=0", *args.set])
-    judged = replace(config, dynamics=replace(config.dynamics,
-                                              engine=config.push_search.engine),
-                     ensemble=replace(config.ensemble, members=args.members))
-    totals = np.zeros(2)
-    print(f"{'initialization':>22} {'paths':>5} {'complete s':>10} {'short s':>8} {'ratio':>6} "
-          f"{'differ':>6}")
+    if args.judge_only:
+        judge_saved(args.judge_only, args.out, args.members, args.set)
+        return
+    from drake_clutter.common.config import load_config
+
+    config = load_config(None, ["dynamics.workers=0"])
+    saved = {}
     for item in args.inits:
         scene, paths, times = search_paths(item, config)
-        geometry = PlanningContext(scene, judged).arm()
-        seconds, verdicts = [], []
-        for complete in (True, False):
-            tic = time.perf_counter()
-            verdicts.append(judge_paths(scene, paths, times, judged, geometry,
-                                        complete=complete))
-            seconds.append(time.perf_counter() - tic)
-        totals += seconds
-        print(f"{item:>22} {len(paths):5d} {seconds[0]:10.1f} {seconds[1]:8.1f} "
-              f"{seconds[0] / seconds[1]:6.2f} {differing(verdicts[0], verdicts[1]):6d}")
-    print(f"{'total':>22} {'':>5} {totals[0]:10.1f} {totals[1]:8.1f} "
-          f"{totals[0] / totals[1]:6.2f}")
+        if paths:
+            saved[item] = (scene, paths, times)
+    with tempfile.TemporaryDirectory() as tmp:
+        paths_file = os.path.join(tmp, "paths.pkl")
+        with open(paths_file, "wb") as f:
+            pickle.dump(saved, f)
+        reference = Path(tmp) / "reference"
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q",
+                        str(reference), args.reference], check=True)
+        try:
+            runs = {"reference": [], "now": []}
+            for _ in range(args.repeats):
+                runs["reference"].append(run_side(reference, paths_file, args.members, []))
+                runs["now"].append(run_side(ROOT, paths_file, args.members, args.set))
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
+                            str(reference)], check=False)
+    report(saved, runs, args)
+
+
+def report(saved: dict, runs: dict, args) -> None:
+    """Prints the table and the differing readings."""
+    best = {side: {item: min(r[item]["seconds"] for r in rs) for item in saved}
+            for side, rs in runs.items()}
+    print(f"K = {args.members}, reference {args.reference}, best of {args.repeats}, "
+          f"now with {' '.join(args.set) or 'the defaults'}")
+    print(f"{'initialization':>22} {'paths':>5} {'reference s':>11} {'now s':>7} {'ratio':>6}")
+    n = 0
+    for item, (_, paths, _) in saved.items():
+        n += len(paths)
+        r, s = best["reference"][item], best["now"][item]
+        print(f"{item:>22} {len(paths):5d} {r:11.1f} {s:7.1f} {r / s:6.2f}")
+    r, s = sum(best["reference"].values()), sum(best["now"].values())
+    print(f"{'total':>22} {n:5d} {r:11.1f} {s:7.1f} {r / s:6.2f}")
+    print(f"paths judged per second: reference {n / r:.2f}, now {n / s:.2f}")
+    lines = differences(runs["now"][0], runs["reference"][0])
+    readings = n * args.members
+    print(f"member readings that differ: {len(lines)} of {readings}; jam measures that differ: "
+          f"{jams_differing(runs['now'][0], runs['reference'][0])} of {readings}")
+    for line in lines:
+        print("  " + line)
+
 
 if __name__ == "__main__":
     main()

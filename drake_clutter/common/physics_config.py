@@ -257,6 +257,8 @@ class EnsembleConfig:
     bullet_friction_member: bool = True
     # knots the judge in phi holds the arm after Delta before reading the boxes, count; ours
     judge_hold_knots: int = bounded(5, ge=0)
+    # threads rolling out the paths of one member's MuJoCo phi at once (1: in turn), count; ours
+    judge_threads: int = bounded(1, ge=1, le=64)
 
 
 @dataclass(frozen=True)

@@ -114,7 +114,7 @@ class JamReader:
 
     def approach(self, context, v_commanded: np.ndarray) -> dict:
         """box index -> the actor's commanded approach speed into it while it is blocked
-        (m/s, the largest over the actor's contacts with it; boxes not blocked are absent).
+        (m/s, `approach_speeds`: the largest over the actor's contacts with it, > 0).
         ``v_commanded`` is the plant's generalized velocity with the actor's commanded joint
         velocities (zero elsewhere)."""
         return approach_speeds(self.contacts(context), lambda c: self._point_velocity(
@@ -135,20 +135,25 @@ class JamReader:
 
 def approach_speeds(contacts: list[Contact], point_velocity) -> dict:
     """box index -> the actor's commanded approach speed into it while it is blocked (m/s,
-    the largest over the actor's contacts with it; boxes not blocked are absent), from a
-    step's ``contacts`` (both ways round) and ``point_velocity(contact)``: the W velocity of
-    the actor's material point at ``contact.point`` under the commanded joint velocities."""
+    the largest over the actor's contacts with it, > 0; boxes not blocked or not approached
+    are absent), from a step's ``contacts`` (both ways round) and ``point_velocity(contact)``:
+    the W velocity of the actor's material point at ``contact.point`` under the commanded
+    joint velocities. A contact's speed is read first and `blocked` asked only where it
+    would raise the box's answer (the blocked test is the costly part)."""
     out: dict = {}
-    cones: dict = {}
-    index = _Index(contacts)
+    cones, index = None, None
     for c in contacts:
         if c.b != ACTOR or c.a in (None, ACTOR):
             continue
         push = c.normal  # from the actor into the box
-        if not blocked(c.a, push, contacts, (c.a,), cones, index):
-            continue
         speed = float(point_velocity(c) @ push)
-        out[c.a] = max(out.get(c.a, 0.0), speed)
+        if speed <= out.get(c.a, 0.0):
+            continue
+        if index is None:
+            index = _Index(contacts)
+            cones = index.cones(contacts)
+        if blocked(c.a, push, contacts, (c.a,), cones, index):
+            out[c.a] = speed
     return out
 
 
@@ -161,6 +166,16 @@ class _Index:
         for c in contacts:
             self.by_node.setdefault(c.a, []).append(c)
         self.answers: dict = {}
+
+    def cones(self, contacts: list[Contact]) -> dict:
+        """Every reaction's cone generators by contact id (the contacts not against the
+        actor), computed in bulk (`cone_generators`)."""
+        reactions = [c for c in contacts if c.b != ACTOR]
+        if not reactions:
+            return {}
+        generators = cone_generators(np.array([c.normal for c in reactions]),
+                                     np.array([c.mu for c in reactions]))
+        return {id(c): g for c, g in zip(reactions, generators, strict=True)}
 
 
 _ANGLES = 2 * np.pi * np.arange(CONE_EDGES) / CONE_EDGES
@@ -182,6 +197,26 @@ def _cone_generators(normal: np.ndarray, mu: float) -> np.ndarray:
     t2 = _cross(normal, t1)
     edges = normal[None, :] + mu * (_COS * t1 + _SIN * t2)
     return edges / np.linalg.norm(edges, axis=1, keepdims=True)
+
+
+def cone_generators(normals: np.ndarray, mus: np.ndarray) -> np.ndarray:
+    """(n, CONE_EDGES, 3) unit generators of the pyramids inscribed in the friction cones
+    about the unit ``normals`` (n, 3) with coefficients ``mus`` (n,): `_cone_generators` for
+    many contacts at once."""
+    normals = np.asarray(normals, dtype=float).reshape(-1, 3)
+    helper = np.eye(3)[np.argmin(np.abs(normals), axis=1)]
+    t1 = _cross_rows(normals, helper)
+    t1 /= np.sqrt((t1 * t1).sum(axis=1, keepdims=True))
+    t2 = _cross_rows(normals, t1)
+    mu = np.asarray(mus, dtype=float).reshape(-1, 1, 1)
+    edges = normals[:, None, :] + mu * (_COS[None] * t1[:, None, :] + _SIN[None] * t2[:, None, :])
+    return edges / np.sqrt((edges * edges).sum(axis=2, keepdims=True))
+
+
+def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a x b of (n, 3) arrays (np.cross's arithmetic, without its overhead)."""
+    return np.stack([a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+                     a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]], axis=1)
 
 
 def held(direction: np.ndarray, generators: list[np.ndarray]) -> bool:

@@ -33,6 +33,8 @@ body frame) velocities; phi's state has w_WB in W: the two are converted here.
 
 from __future__ import annotations
 
+import copy
+
 import mujoco
 import numpy as np
 
@@ -94,6 +96,9 @@ def jam_contacts(model, data, nodes: np.ndarray) -> list[Contact]:
     listed from the side of every kept box it touches that the arm reaches through a chain of
     touching kept boxes (the only contacts `jam.approach_speeds` reads); ``nodes`` maps
     geometry ids to interaction nodes (ARM_NODE, box i + 1, frozen boxes negative, STATIC)."""
+    n = data.ncon
+    if n == 0 or not np.any(nodes[data.contact.geom[:n]] == ARM_NODE):
+        return []  # the arm touches nothing: no box can be blocked under it
     magnitude = contact_magnitudes(model, data)
     acting = np.flatnonzero(magnitude >= MIN_FORCE)
     pairs = nodes[data.contact.geom[acting]] if acting.size else np.zeros((0, 2), int)
@@ -178,6 +183,16 @@ class MujocoPhi(PhiBase):
             self._nodes[m.geom_bodyid == m.body(box_geom(name)).id] = i + 1
         for j, (name, _) in enumerate(spec.frozen):
             self._nodes[m.geom(box_geom(name)).id] = -(j + 1)
+
+    def clone(self) -> MujocoPhi:
+        """The same phi with its own MuJoCo data and model copy (`_near_edges` widens the
+        model's margins for a moment), to step in another thread: MuJoCo releases the GIL while
+        it steps; the same (x, u) gives the same bits in either."""
+        twin = copy.copy(self)
+        twin.model = copy.copy(self.model)
+        twin.data = mujoco.MjData(twin.model)
+        twin.failures = 0
+        return twin
 
     # -- state in and out
 

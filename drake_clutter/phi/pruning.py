@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, Role
 
 from drake_clutter.common.config import DynamicsConfig, WorldConfig
 from drake_clutter.phi.dynamics import PhiSpec, initial_state, make_spec, reach
@@ -79,16 +80,17 @@ def prune(scene: Scene, arm_path: np.ndarray, box_states: dict[str, np.ndarray] 
         world.plant.SetFreeBodyPose(context, world.box_body(box.name),
                                     box_state_to_pose(states[box.name]))
     owner = _geometry_owners(world)
+    neighbours = _box_neighbours(world, context, owner, config.prune_contact_range)
+    _only_arm_with_boxes(world, root, owner)
     near_arm: set[str] = set()
     samples = np.vstack([swept_samples(path, config.prune_samples_per_knot)
                          for path in (arm_path, *other_paths)])
     for q in robot_positions(samples):
         world.set_robot_positions(context, q)
         for a, b in _close_pairs(world, context, owner, config.prune_margin):
-            if "arm" in (a, b):
-                near_arm.add(b if a == "arm" else a)
-    near_arm.discard("arm")
-    neighbours = _box_neighbours(world, context, owner, config.prune_contact_range)
+            near_arm.add(b if a == "arm" else a)
+        if len(near_arm) == len(scene.boxes):
+            break
     kept = reach(near_arm, neighbours)
     order = [b.name for b in scene.boxes]
     return PruneReport(tuple(n for n in order if n in kept),
@@ -106,6 +108,22 @@ def _geometry_owners(world) -> dict:
         owner.update(dict.fromkeys(
             plant.GetCollisionGeometriesForBody(world.box_body(name)), name))
     return owner
+
+
+def _only_arm_with_boxes(world, root, owner: dict) -> None:
+    """Filters, in the root context ``root``, every geometry pair but the arm's with a box out of
+    the world's distance queries (the swept arm asks only those: the shelf's pairs with the
+    boxes resting on it are the most numerous otherwise)."""
+    arm = GeometrySet([g for g, name in owner.items() if name == "arm"])
+    inspector = world.scene_graph.model_inspector()
+    others = GeometrySet([g for g in inspector.GetAllGeometryIds(Role.kProximity)
+                          if owner.get(g) != "arm"])
+    static = GeometrySet([g for g in inspector.GetAllGeometryIds(Role.kProximity)
+                          if g not in owner])
+    manager = world.scene_graph.collision_filter_manager(
+        world.scene_graph.GetMyMutableContextFromRoot(root))
+    manager.Apply(CollisionFilterDeclaration().ExcludeWithin(arm).ExcludeWithin(others)
+                  .ExcludeBetween(arm, static))
 
 
 def _close_pairs(world, context, owner: dict, distance: float) -> set[tuple[str, str]]:

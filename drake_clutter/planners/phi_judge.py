@@ -27,14 +27,16 @@ robust judge summarises its replays.
 
 from __future__ import annotations
 
+import queue
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 
-from drake_clutter.common.config import Config, EvaluationConfig
+from drake_clutter.common.config import Config, EnsembleConfig, EvaluationConfig
 from drake_clutter.phi.dynamics import initial_state, make_spec
 from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import prune
@@ -60,14 +62,14 @@ from drake_clutter.trajectory import Trajectory, plan_limit_violation
 class PhiFindings:
     """What one member's rollout of a plan showed, before the classes' precedence: the plan's
     joint or speed limit violation ("" for none), its deepest press on a box's top with the boxes at
-    rest (m; recorded, not read), phi's largest jam measure over the path and the hold (m; None
-    where phi failed), whether phi failed, the boxes fallen, the obstacles tipped, why the target is
+    rest (m; recorded, not read; None where not measured: the short form), phi's largest jam
+    measure over the path and the hold (m; None where phi failed), whether phi failed, the boxes fallen, the obstacles tipped, why the target is
     not grasped ("" when it is), the boxes tipped or fallen (the target included), and whether the
     rollout was stopped (or not run) once a kinematic failure was certain (the box fates are then
     not read: `judge_paths` with ``complete=False``)."""
 
     limit: str = ""
-    press: float = 0.0
+    press: float | None = 0.0
     jam: float | None = 0.0
     failed: bool = False
     fallen: tuple[str, ...] = ()
@@ -85,7 +87,8 @@ class PhiFindings:
     @staticmethod
     def from_data(data: dict) -> PhiFindings:
         """Inverse of `to_data`."""
-        return PhiFindings(str(data["limit"]), float(data["press"]),
+        return PhiFindings(str(data["limit"]),
+                           None if data["press"] is None else float(data["press"]),
                            None if data["jam"] is None else float(data["jam"]),
                            bool(data["failed"]), tuple(data["fallen"]), tuple(data["tipped"]),
                            str(data["grasp"]), int(data["disturbed"]),
@@ -236,11 +239,13 @@ def member_findings(scene: Scene, geometry: ArmGeometry, q: np.ndarray,
 
 
 def plan_checks(scene: Scene, geometry: ArmGeometry, q: np.ndarray, times: np.ndarray,
-                config: Config) -> tuple[str, float]:
+                config: Config, press: bool = True) -> tuple[str, float | None]:
     """The member-independent checks of a knot path (T + 1, 8) at ``times`` (s): the judge's
     joint and speed limits ("" when kept) and the deepest press on a box's top with the boxes
-    at rest (m, `geometry.path_depths`)."""
+    at rest (m, `geometry.path_depths`; None without ``press``: it is recorded, not read)."""
     violation = plan_limit_violation(Trajectory(np.asarray(times, float), q), config.evaluation)
+    if not press:
+        return violation, None
     press, _ = path_depths(geometry, q, config.physics.press_substeps,
                            config.physics.press_normal_z, (scene.target,))
     return violation, float(press)
@@ -282,15 +287,37 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
             x0 = phi.settle(initial_state(spec.layout, first[0], states))
         except (RuntimeError, ValueError):  # Drake's solver errors while settling
             return {**out, **dict.fromkeys(todo, JudgedRollout(None, None))}
-        for name, q in todo.items():
-            out[name] = _judged_rollout(phi, x0, np.asarray(q, float),
-                                        config.ensemble.judge_hold_knots, stop)
+        out.update(_rollouts(phi, x0, todo, config.ensemble, stop))
         touched = set().union(*(out[name].touched for name in todo))
         if not touched or round_ == dyn.prune_rounds:
             break
         kept |= touched
         todo = {name: q for name, q in todo.items() if out[name].touched}
     return {name: out[name] for name in paths}
+
+
+def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], ensemble: EnsembleConfig,
+              stop: float | None) -> dict[str, JudgedRollout]:
+    """`_judged_rollout` of every path, in ``ensemble.judge_threads`` threads where phi can be
+    cloned (MuJoCo), each thread stepping its own clone: the same rollouts as in turn."""
+    hold = ensemble.judge_hold_knots
+    threads = min(ensemble.judge_threads, len(paths))
+    if threads <= 1 or not hasattr(phi, "clone"):
+        return {name: _judged_rollout(phi, x0, np.asarray(q, float), hold, stop)
+                for name, q in paths.items()}
+    idle = queue.SimpleQueue()
+    for twin in [phi, *(phi.clone() for _ in range(threads - 1))]:
+        idle.put(twin)
+
+    def roll(q: np.ndarray) -> JudgedRollout:
+        twin = idle.get()
+        try:
+            return _judged_rollout(twin, x0, np.asarray(q, float), hold, stop)
+        finally:
+            idle.put(twin)
+
+    with ThreadPoolExecutor(threads) as executor:
+        return dict(zip(paths, executor.map(roll, paths.values()), strict=True))
 
 
 def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
@@ -300,12 +327,16 @@ def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
     x = x0.copy()
     x[:ARM_DIM] = q[0]
     worst, touched = 0.0, set()
+    trace = bool(phi.spec.frozen)  # the edges only say which frozen boxes were reached
     for u in [*q[1:], *([q[-1]] * hold_knots)]:
         try:
-            x, edges, jam = phi.step_traced_jam(x, u)
+            if trace:
+                x, edges, jam = phi.step_traced_jam(x, u)
+                touched |= phi.frozen_touched(edges)
+            else:
+                x, jam = phi.step_jam(x, u)
         except (RuntimeError, ValueError):  # Drake's solver errors while stepping
             return JudgedRollout(None, None, touched=frozenset(touched))
-        touched |= phi.frozen_touched(edges)
         if not layout.is_state(x):
             return JudgedRollout(None, None, touched=frozenset(touched))
         worst = max(worst, float(jam.max(initial=0.0)))
@@ -322,11 +353,12 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
     members ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet the
     same members, each member's phi pruned for all of them and rolled out from each path's own start
     (`judged_rollouts`). ``complete=False`` reads the same classes with less work: a path out of the
-    limits is not rolled out, and a rollout stops once its jam reads a kinematic failure (its
-    findings then say ``stopped`` and hold no box fates). ``pool`` (a `phi.workers.WorkerPool`): the
+    limits is not rolled out, a rollout stops once its jam reads a kinematic failure (its
+    findings then say ``stopped`` and hold no box fates), and the press is not measured. ``pool`` (a `phi.workers.WorkerPool`): the
     members are rolled out in its workers, one member a task (the same verdicts; each worker builds
     its own arm). ``geometry``: the capsule arm with the boxes at rest (`PlanningContext.arm`)."""
-    checks = {name: plan_checks(scene, geometry, q, times, config) for name, q in paths.items()}
+    checks = {name: plan_checks(scene, geometry, q, times, config, press=complete)
+              for name, q in paths.items()}
     order = list(range(config.ensemble.members) if members is None else members)
     jobs = [(scene, paths, np.asarray(times, float), config, checks, m, complete)
             for m in order]

@@ -15,6 +15,7 @@ from drake_clutter.scene.generators import generate_scene
 from drake_clutter.testing.fidelity import phi_final
 from drake_clutter.testing.reach_paths import straight_reach
 from drake_clutter.trajectory import Trajectory, robot_positions
+from drake_clutter.worlds.drake_world import PointContactBoxes, build_dynamics_world
 
 finite = st.floats(-1.0, 1.0, allow_nan=False)
 
@@ -165,6 +166,28 @@ def test_pruning_keeps_more_boxes_in_denser_scenes():
         kept.append(len(report.kept))
         assert len(report.kept) < n or n <= 5
     assert kept == sorted(kept)
+
+
+def test_pruning_finds_the_boxes_near_the_swept_arm_of_every_pair_query(scene10, reach10):
+    """The boxes near the arm, as pruning finds them with only the arm's pairs queried, are
+    those an unfiltered query of every pair at every swept sample finds."""
+    config = DynamicsConfig()
+    world = build_dynamics_world(scene10, "capsules", point_contact=PointContactBoxes(
+        config.corner_sphere_radius))
+    context = world.plant.GetMyMutableContextFromRoot(world.diagram.CreateDefaultContext())
+    arm = {g for body in world.plant.GetBodyIndices(world.robot)
+           for g in world.plant.GetCollisionGeometriesForBody(world.plant.get_body(body))}
+    box_of = {g: name for name in world.box_names
+              for g in world.plant.GetCollisionGeometriesForBody(world.box_body(name))}
+    near = set()
+    for q in robot_positions(swept_samples(reach10, config.prune_samples_per_knot)):
+        world.set_robot_positions(context, q)
+        query = world.plant.get_geometry_query_input_port().Eval(context)
+        for pair in query.ComputeSignedDistancePairwiseClosestPoints(config.prune_margin):
+            for a, b in ((pair.id_A, pair.id_B), (pair.id_B, pair.id_A)):
+                if a in arm and b in box_of:
+                    near.add(box_of[b])
+    assert near and set(prune(scene10, reach10, config=config).near_arm) == near
 
 
 def test_pruning_grows_transitively_with_the_contact_range(scene10, reach10):

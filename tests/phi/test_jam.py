@@ -8,7 +8,15 @@ import pytest
 
 from drake_clutter.common.config import DynamicsConfig
 from drake_clutter.phi.dynamics import ARM_NODE, Phi, initial_state
-from drake_clutter.phi.jam import ACTOR, Contact, blocked, held
+from drake_clutter.phi.jam import (
+    ACTOR,
+    Contact,
+    _cone_generators,
+    approach_speeds,
+    blocked,
+    cone_generators,
+    held,
+)
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.scene.generators import generate_scene
@@ -48,6 +56,30 @@ def test_held_is_cone_membership():
     assert held(np.array([0.0, 0.0, -1.0]), [UP])
     assert not held(np.array([0.0, 0.0, 1.0]), [UP])
     assert not held(np.array([1.0, 0.0, 0.0]), [])
+
+
+def test_cone_generators_in_bulk_are_each_contacts_own():
+    rng = np.random.default_rng(3)
+    normals = rng.normal(size=(50, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    normals[:3] = [UP, -UP, [1.0, 0.0, 0.0]]  # axis-aligned, as on a board or a wall
+    mus = rng.uniform(0.05, 1.0, 50)
+    bulk = cone_generators(normals, mus)
+    assert bulk.shape == (50, 8, 3)
+    for n, mu, g in zip(normals, mus, bulk, strict=True):
+        np.testing.assert_allclose(g, _cone_generators(n, mu), rtol=0, atol=1e-15)
+
+
+def test_approach_speeds_reads_only_the_arm_advancing_into_a_blocked_box():
+    """Box 0 against a wall ahead (+x), box 1 free on the board; the arm touches both from
+    behind. Advancing at 0.2 m/s: box 0 blocked at that speed, box 1 absent (free). Receding
+    (the arm's point moving away): no box, whatever blocks it."""
+    wall = _both(0, None, [-1.0, 0.0, 0.0])
+    contacts = (_board(0) + wall + _both(0, ACTOR, [1.0, 0.0, 0.0])
+                + _board(1) + _both(1, ACTOR, [1.0, 0.0, 0.0]))
+    ahead = approach_speeds(contacts, lambda c: np.array([0.2, 0.0, 0.0]))
+    assert ahead == {0: pytest.approx(0.2)}
+    assert approach_speeds(contacts, lambda c: np.array([-0.2, 0.0, 0.0])) == {}
 
 
 @pytest.fixture(scope="module")

@@ -235,3 +235,21 @@ def test_the_short_judge_reads_the_same_classes_with_stopped_rollouts(scene, bas
     assert not any(f.stopped for f in full["pressing"].findings)
     assert all(f.stopped and f.limit and f.jam is None for f in quick["fast"].findings)
     assert not any(f.stopped for f in quick["outside"].findings)
+
+
+def test_threads_roll_out_the_same_verdicts_as_in_turn(scene, baseline_path):
+    """``ensemble.judge_threads``: the paths of a member rolled out in two threads, each its
+    own clone of the MuJoCo phi, read the very same findings as one after the other."""
+    pressing = _pressing_path()
+    paths = {"pressing": pressing, "outside": np.repeat(pressing[:1], len(pressing), axis=0),
+             "baseline": baseline_path}
+    found = []
+    for threads in (1, 2):
+        config = load_config(None, ["dynamics.engine=mujoco", "ensemble.members=2",
+                                    "dynamics.workers=0", f"ensemble.judge_threads={threads}"])
+        times = np.arange(len(pressing)) * config.baseline.knot_time
+        verdicts = judge_paths(scene, paths, times, config, ArmGeometry(scene, "capsules"),
+                               complete=False)
+        found.append({k: v.to_data() for k, v in verdicts.items()})
+    assert found[0] == found[1]
+    assert found[0]["pressing"]["kinds"] == ["kinematic_failure"] * 2

@@ -27,6 +27,7 @@ robust judge summarises its replays.
 
 from __future__ import annotations
 
+import math
 import queue
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -49,7 +50,9 @@ from drake_clutter.scene.grading import (
     OutcomeKind,
     box_overlap,
     classify,
+    edge_distance,
     off_the_board,
+    target_zone_ratio,
     target_zone_reason,
     tilt_angle,
     zone_extent,
@@ -66,7 +69,11 @@ class PhiFindings:
     measure over the path and the hold (m; None where phi failed), whether phi failed, the boxes fallen, the obstacles tipped, why the target is
     not grasped ("" when it is), the boxes tipped or fallen (the target included), and whether the
     rollout was stopped (or not run) once a kinematic failure was certain (the box fates are then
-    not read: `judge_paths` with ``complete=False``)."""
+    not read: `judge_paths` with ``complete=False``). How near the box fates came to the classes'
+    limits (None where not read): the largest obstacle tilt (rad), the largest approach of a box
+    to the board's edge (1 - its distance inside the footprint at the end over that at the start,
+    unitless, at least 1 for a fallen box), the target's distance from the pre-grasp zone
+    (`grading.target_zone_ratio`, unitless) and the deepest intrusion of another box into it (m)."""
 
     limit: str = ""
     press: float | None = 0.0
@@ -77,12 +84,18 @@ class PhiFindings:
     grasp: str = ""
     disturbed: int = 0
     stopped: bool = False
+    tilt: float | None = None
+    edge: float | None = None
+    zone: float | None = None
+    intrusion: float | None = None
 
     def to_data(self) -> dict:
         """JSON-ready dict."""
         return {"limit": self.limit, "press": self.press, "jam": self.jam,
                 "failed": self.failed, "fallen": list(self.fallen), "tipped": list(self.tipped),
-                "grasp": self.grasp, "disturbed": self.disturbed, "stopped": self.stopped}
+                "grasp": self.grasp, "disturbed": self.disturbed, "stopped": self.stopped,
+                "tilt": self.tilt, "edge": self.edge, "zone": self.zone,
+                "intrusion": self.intrusion}
 
     @staticmethod
     def from_data(data: dict) -> PhiFindings:
@@ -92,17 +105,29 @@ class PhiFindings:
                            None if data["jam"] is None else float(data["jam"]),
                            bool(data["failed"]), tuple(data["fallen"]), tuple(data["tipped"]),
                            str(data["grasp"]), int(data["disturbed"]),
-                           bool(data.get("stopped", False)))
+                           bool(data.get("stopped", False)),
+                           *(_number(data.get(k)) for k in ("tilt", "edge", "zone", "intrusion")))
+
+
+def _number(value) -> float | None:
+    return None if value is None else float(value)
+
+
+def _finite(value: float) -> float | None:
+    """JSON's number for a margin: None for an infinite one."""
+    return value if math.isfinite(value) else None
 
 
 @dataclass(frozen=True)
 class PhiReading:
-    """One member's reading of a plan: Sec. III's class (an `OutcomeKind` value), why, and
-    the boxes tipped or fallen at the end of the hold."""
+    """One member's reading of a plan: Sec. III's class (an `OutcomeKind` value), why, the
+    boxes tipped or fallen at the end of the hold, and how near the findings came to the
+    classes' limits (`member_margin`, unitless; lower is better)."""
 
     kind: str
     reason: str
     disturbed: int = 0
+    margin: float = 0.0
 
     @property
     def grade(self) -> int:
@@ -122,11 +147,34 @@ def kinematic_reason(findings: PhiFindings, config: Config) -> str:
     return ""
 
 
+def member_margin(findings: PhiFindings, config: Config) -> float:
+    """How near one member's findings came to the classes' limits, unitless, lower is better:
+    the largest of the quantities the classes threshold, each over its limit (the jam over
+    ``dynamics.jam_depth``, the largest obstacle tilt over ``evaluation.max_tilt``, a box's
+    approach to the board's edge, the target's distance from the pre-grasp zone, the deepest
+    intrusion into it over ``evaluation.intrusion_tolerance``), so above 1 where one of them
+    decides a failure; infinite for a plan out of the limits or a failed rollout. A quantity
+    not read (a stopped rollout's box fates) is left out."""
+    if findings.limit or findings.failed:
+        return math.inf
+    ratios = [0.0]
+    if findings.jam is not None:
+        ratios.append(findings.jam / config.dynamics.jam_depth)
+    if findings.tilt is not None:
+        ratios.append(findings.tilt / config.evaluation.max_tilt)
+    ratios += [r for r in (findings.edge, findings.zone) if r is not None]
+    if findings.intrusion is not None:
+        tolerance = config.evaluation.intrusion_tolerance
+        ratios.append(findings.intrusion / tolerance if tolerance > 0
+                      else math.inf if findings.intrusion > 0 else 0.0)
+    return float(max(ratios))
+
+
 def reading_of(findings: PhiFindings, config: Config) -> PhiReading:
     """Sec. III's class of the findings with the judge's precedence (`grading.classify`)."""
     reason = kinematic_reason(findings, config)
     kind, why = classify(reason, findings.fallen, findings.grasp, findings.tipped)
-    return PhiReading(kind.value, why, findings.disturbed)
+    return PhiReading(kind.value, why, findings.disturbed, member_margin(findings, config))
 
 
 @dataclass(frozen=True)
@@ -152,6 +200,11 @@ class PhiVerdict:
         """Mean boxes tipped or fallen over the members."""
         return float(np.mean([r.disturbed for r in self.readings]))
 
+    @property
+    def margin(self) -> float:
+        """Mean margin over the members (`member_margin`; lower is nearer to success)."""
+        return float(np.mean([r.margin for r in self.readings]))
+
     def key(self) -> tuple[float, float, float]:
         """The order of plans, best first: higher P(success), then lower expected grade,
         then fewer boxes disturbed."""
@@ -162,6 +215,8 @@ class PhiVerdict:
         return {"kinds": [r.kind for r in self.readings],
                 "reasons": [r.reason for r in self.readings],
                 "disturbed": [r.disturbed for r in self.readings],
+                "margins": [_finite(r.margin) for r in self.readings],
+                "margin": _finite(self.margin),
                 "p_success": self.p_success, "expected_grade": self.expected_grade,
                 "findings": [f.to_data() for f in self.findings]}
 
@@ -198,31 +253,37 @@ def box_fates(scene: Scene, geometry: ArmGeometry, final: dict[str, np.ndarray],
     return p, R, fallen, tipped
 
 
-def grasp_reason(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray, p: np.ndarray,
-                 R: np.ndarray, evaluation: EvaluationConfig) -> str:
-    """"" when the target (scene order in p (n, 3), R (n, 3, 3), W) sits in the pre-grasp
-    zone of the gripper at the last knot ``q_last`` (8,) and no other box reaches into the
-    zone deeper than ``intrusion_tolerance``; else why not (the judge's `grasp_check`)."""
+def grasp_reading(scene: Scene, geometry: ArmGeometry, q_last: np.ndarray, p: np.ndarray,
+                  R: np.ndarray, evaluation: EvaluationConfig) -> tuple[str, float, float]:
+    """Why the target (scene order in p (n, 3), R (n, 3, 3), W) is not grasped at the last knot
+    ``q_last`` (8,) ("" when it sits in the gripper's pre-grasp zone and no other box reaches
+    into the zone deeper than ``intrusion_tolerance``: the judge's `grasp_check`), the target's
+    distance from the zone (`grading.target_zone_ratio`, unitless) and the deepest intrusion
+    of another box into it (m)."""
     names = [b.name for b in scene.boxes]
     i = names.index(scene.target)
     X_WG = geometry.tool_jacobian(q_last)[0]
     R_WG, p_WG = X_WG.rotation().matrix(), X_WG.translation()
     opening = float(q_last[7])
-    reason = target_zone_reason(R_WG.T @ (p[i] - p_WG), R_WG.T @ R[i], scene.target_box.size,
-                                opening, evaluation)
-    if reason:
-        return reason
+    p_GT, R_GT = R_WG.T @ (p[i] - p_WG), R_WG.T @ R[i]
+    size = scene.target_box.size
+    zone = target_zone_ratio(p_GT, R_GT, size, opening, evaluation)
+    reason = target_zone_reason(p_GT, R_GT, size, opening, evaluation)
     centre, half = zone_extent(opening, evaluation)
     zone_W = p_WG + R_WG @ centre
-    intruders = [name for k, (name, box) in enumerate(zip(names, scene.boxes, strict=True))
-                 if k != i and box_overlap(zone_W, R_WG, half, p[k], R[k],
-                                           np.asarray(box.size) / 2)
-                 > evaluation.intrusion_tolerance]
-    return ("another box is in the gripper: " + ", ".join(intruders)) if intruders else ""
+    depths = {name: box_overlap(zone_W, R_WG, half, p[k], R[k], np.asarray(box.size) / 2)
+              for k, (name, box) in enumerate(zip(names, scene.boxes, strict=True)) if k != i}
+    deepest = max(depths.values(), default=0.0)
+    if reason:
+        return reason, zone, deepest
+    intruders = [name for name, depth in depths.items()
+                 if depth > evaluation.intrusion_tolerance]
+    return (("another box is in the gripper: " + ", ".join(intruders)) if intruders else "",
+            zone, deepest)
 
 
 def member_findings(scene: Scene, geometry: ArmGeometry, q: np.ndarray,
-                    rollout: JudgedRollout, limit: str, press: float,
+                    rollout: JudgedRollout, limit: str, press: float | None,
                     evaluation: EvaluationConfig) -> PhiFindings:
     """What one member's ``rollout`` (with its jam measure) of the knot path ``q`` (T + 1, 8)
     showed, with the plan's ``limit`` violation and ``press`` depth (m) found beforehand."""
@@ -230,12 +291,19 @@ def member_findings(scene: Scene, geometry: ArmGeometry, q: np.ndarray,
         return PhiFindings(limit, press, None, failed=True)
     p, R, fallen, tipped = box_fates(scene, geometry, rollout.final_boxes, evaluation)
     names = [b.name for b in scene.boxes]
+    grasp, zone, intrusion = grasp_reading(scene, geometry, q[-1], p, R, evaluation)
+    obstacles = np.array([n != scene.target for n in names])
+    start = edge_distance(scene, np.array([geometry.rest_pose(n).translation() for n in names]))
+    approach = 1.0 - edge_distance(scene, p) / np.maximum(start, 1e-9)
     return PhiFindings(
         limit, press, rollout.jam, False,
         tuple(n for n, f in zip(names, fallen, strict=True) if f),
         tuple(n for n, t in zip(names, tipped, strict=True) if t and n != scene.target),
-        grasp_reason(scene, geometry, q[-1], p, R, evaluation),
-        int(fallen.sum() + tipped.sum()))
+        grasp, int(fallen.sum() + tipped.sum()),
+        tilt=float(tilt_angle(R)[obstacles].max(initial=0.0)),
+        edge=float(np.max(np.where(fallen, np.maximum(approach, 1.0), approach),
+                          initial=0.0)),
+        zone=zone, intrusion=float(intrusion))
 
 
 def plan_checks(scene: Scene, geometry: ArmGeometry, q: np.ndarray, times: np.ndarray,

@@ -71,6 +71,30 @@ def target_zone_reason(p_GT, R_GT, size, opening: float, config: EvaluationConfi
     return ""
 
 
+def target_zone_ratio(p_GT, R_GT, size, opening: float, config: EvaluationConfig) -> float:
+    """How far a target box (as `target_zone_reason` takes it) sits from the pre-grasp zone,
+    unitless: the largest of its three tests' ratios (the centre's offset along x_G over the
+    zone's half length; the extent across the gripper over the half gap plus
+    ``fit_tolerance``; the pads' half height and offset along z_G over the target's half extent
+    plus ``fit_tolerance``). Above 1 exactly where `target_zone_reason` names a reason."""
+    p = np.asarray(p_GT, dtype=float)
+    reach = np.abs(np.asarray(R_GT)) @ (np.asarray(size, dtype=float) / 2)
+    centre, half = zone_extent(opening, config)
+    tol = config.fit_tolerance
+    return float(max(abs(p[0] - centre[0]) / half[0],
+                     (abs(p[1]) + reach[1]) / (opening / 2 + tol),
+                     (abs(p[2]) + half[2]) / (reach[2] + tol)))
+
+
+def edge_distance(scene: Scene, p_WB: np.ndarray) -> np.ndarray:
+    """Each box centre's (rows of p_WB, W) distance inside the board's footprint (m; negative
+    outside it): the margin `off_the_board` tests horizontally."""
+    shelf = scene.shelf
+    p = np.atleast_2d(p_WB)
+    cx, cy = shelf.center_xy
+    return np.minimum(shelf.depth / 2 - np.abs(p[:, 0] - cx), shelf.width / 2 - np.abs(p[:, 1] - cy))
+
+
 def box_overlap(p_a, R_a, half_a, p_b, R_b, half_b) -> float:
     """How deep (m, >= 0) two boxes overlap (centres p and rotations R in one frame, half
     extents in m): the smallest overlap of their projections over the 15 separating axes (the

@@ -22,9 +22,15 @@ from drake_clutter.planners.phi_judge import (
     PhiVerdict,
     judge_paths,
     member_findings,
+    member_margin,
     reading_of,
 )
-from drake_clutter.scene.grading import box_overlap, zone_extent
+from drake_clutter.scene.grading import (
+    box_overlap,
+    target_zone_ratio,
+    target_zone_reason,
+    zone_extent,
+)
 
 # ----------------------------------------------------------------------------- box overlap
 
@@ -174,6 +180,60 @@ def test_verdict_summarises_members_as_the_robust_judge():
     worse = PhiVerdict((PhiReading("success", ""), PhiReading("objects_falling", "", 2)))
     assert v.key() < worse.key()  # same P(success) and expected grade: fewer boxes disturbed
     assert v.to_data()["kinds"][2] == "kinematic_failure"
+
+
+def test_the_zone_ratio_passes_1_exactly_where_the_zone_test_names_a_reason():
+    evaluation = Config().evaluation
+    rng = np.random.default_rng(7)
+    size, opening = (0.05, 0.06, 0.12), 0.08
+    seen = set()
+    for _ in range(2000):
+        p = rng.normal(0.0, [0.03, 0.01, 0.03]) + [zone_extent(opening, evaluation)[0][0], 0, 0]
+        R = Rotation.from_rotvec(rng.normal(0.0, 0.2, 3)).as_matrix()
+        reason = target_zone_reason(p, R, size, opening, evaluation)
+        ratio = target_zone_ratio(p, R, size, opening, evaluation)
+        assert (ratio > 1.0) == bool(reason), (ratio, reason)
+        seen.add(bool(reason))
+    assert seen == {True, False}
+
+
+def test_the_margin_orders_failures_by_how_near_they_came(setting):
+    """The target pushed 5 cm and 10 cm deeper: both fail the grasp, the nearer with the
+    smaller margin; a success reads a margin below 1, a jam its depth over the limit, a plan
+    out of the limits an infinite one."""
+    scene, q, geometry, states = setting
+    rest = geometry.rest_pose("target").translation()
+    near = _read(setting, _moved(states, "target", RigidTransform(rest + [0.05, 0, 0])))
+    far = _read(setting, _moved(states, "target", RigidTransform(rest + [0.10, 0, 0])))
+    assert near.kind == far.kind == "failure_to_grasp"
+    assert 1.0 < near.margin < far.margin
+    assert _read(setting, states).margin < 1.0
+    config = Config()
+    assert _read(setting, states, jam=0.003).margin == pytest.approx(
+        0.003 / config.dynamics.jam_depth)
+    assert member_margin(PhiFindings(limit="too fast"), config) == np.inf
+    nearer = PhiVerdict((near, near))
+    farther = PhiVerdict((far, far))
+    assert nearer.margin < farther.margin
+
+
+def test_a_box_pushed_toward_the_board_edge_reads_nearer_a_fall(setting):
+    scene, q, geometry, states = setting
+    rest = geometry.rest_pose("large_stable")
+    shelf = scene.shelf
+    offset = rest.translation()[:2] - np.asarray(shelf.center_xy)
+    inside = np.array([shelf.depth, shelf.width]) / 2 - np.abs(offset)
+    axis = int(np.argmin(inside))  # the nearer edge
+    shift = np.zeros(3)
+    shift[axis] = np.sign(offset[axis]) * inside[axis] * 0.8
+    moved = RigidTransform(rest.rotation(), rest.translation() + shift)
+    found = member_findings(scene, geometry, q, JudgedRollout(
+        _moved(states, "large_stable", moved), 0.0), "", 0.0, Config().evaluation)
+    assert found.edge == pytest.approx(0.8, abs=1e-6)
+    fallen = member_findings(scene, geometry, q, JudgedRollout(_moved(
+        states, "large_stable", RigidTransform([0.3, 0.1, 0.06])), 0.0), "", 0.0,
+        Config().evaluation)
+    assert fallen.edge >= 1.0
 
 
 # ----------------------------------------------------------------------------- whole plans

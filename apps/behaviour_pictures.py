@@ -76,7 +76,7 @@ def main(argv=None) -> int:
         if not Path(args.db).is_file():
             raise InputError(args.db, "db", "no such file")
         overrides = load_config(args.config, args.overrides)
-        with Store(args.db, create=False) as store:
+        with Store(args.db, read_only=True) as store:
             rows, configurations = store.rows(), store.configurations()
         chosen = widest_wins(rows, args.planner)
         if args.scene:

@@ -47,7 +47,7 @@ def stored_plans(paths: list[str]) -> list[dict]:
     """[{scene, planner, configuration, angle, trajectory (data)}], one per distinct plan."""
     seen, out = set(), []
     for path in paths:
-        with Store(path, create=False) as store:
+        with Store(path, read_only=True) as store:
             rows = store.rows()
         for r in rows:
             traj = (r.get("plan") or {}).get("trajectory")

@@ -47,7 +47,7 @@ def plans(args, config) -> list[dict]:
     """[{scene, planner, configuration, angle, trajectory}] to judge."""
     if args.db:
         shipped = set(scenes.shipped_scene_names())
-        with Store(args.db, create=False) as store:
+        with Store(args.db, read_only=True) as store:
             rows = store.rows()
         return [{"scene": r["scene"], "planner": r["planner"], "configuration": r["config_name"],
                  "angle": r["angle"], "trajectory": Trajectory.from_data(r["plan"]["trajectory"])}

@@ -32,7 +32,7 @@ def load(paths: list[str]) -> dict[str, dict[tuple[str, int], dict]]:
     named: dict[str, dict[tuple[str, int], dict]] = defaultdict(dict)
     owner: dict[str, str] = {}
     for path in paths:
-        with Store(path, create=False) as store:
+        with Store(path, read_only=True) as store:
             for row in store.rows():
                 name = f"{row['config_name']}/{row['planner']}"
                 if owner.setdefault(name, path) != path:

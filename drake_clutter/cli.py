@@ -19,6 +19,7 @@ stderr and exits with status 2; there is never a traceback for user errors.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -226,12 +227,26 @@ def _cmd_experiment_run(args) -> int:
     return 0
 
 
+def check_output_folder(path: str | Path, flag: str) -> None:
+    """Raises an InputError naming ``flag`` unless ``path`` is, or can be made, a writable
+    folder: not a file, not under a file, its nearest existing folder writable."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError("<command line>", flag, f"{path} is a file, not a folder")
+    existing = next(p for p in (path, *path.parents) if p.exists())
+    if not existing.is_dir():
+        raise InputError("<command line>", flag, f"{path} lies under the file {existing}")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError("<command line>", flag, f"{existing} is not writable")
+
+
 def _cmd_report(args) -> int:
     from drake_clutter.experiments.report import write_report
     from drake_clutter.experiments.store import Store
 
     config = _load_config(args)
-    with Store(args.db, create=False) as store:
+    check_output_folder(args.out, "--out")
+    with Store(args.db, read_only=True) as store:
         rows = store.rows()
     configs = list(dict.fromkeys(r["config_name"] for r in rows))
     if args.against is not None and args.against not in configs:

@@ -63,6 +63,7 @@ def test_list_shows_every_shipped_scene(capsys):
      "--seed"),
     (["scene", "generate", "--kind", "fridge", "--objects", "2", "--seed", "1", "-o",
       "/no/such/dir/x.yaml"], "cannot write"),
+    (["experiment", "run", "nope_tier", "--db", "x.db"], "tiers: smoke, small"),
 ])
 def test_bad_input_gives_one_line_and_exit_2(args, needle, tmp_path):
     result = _run(*args)

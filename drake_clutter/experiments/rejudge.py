@@ -82,7 +82,7 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
 
     check_overrides(overrides)
     started = time.perf_counter()
-    with Store(source, create=False) as store:
+    with Store(source, read_only=True) as store:
         rows, configurations = store.rows(), store.configurations()
     tasks, hashes = [], {}
     for row in rows:

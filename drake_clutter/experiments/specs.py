@@ -127,6 +127,9 @@ def load_spec(spec: str | Path) -> tuple[ExperimentSpec, str]:
     apply to the configuration, unknown scene sets, shipped names or angle indices).
     """
     path = tier_path(str(spec)) if str(spec) in TIERS else Path(spec)
+    if str(spec) not in TIERS and not path.exists() and path.suffix not in (".yaml", ".yml"):
+        raise SpecError("<command line>", "SPEC", f"{spec!r} is neither a spec file nor a tier "
+                        f"(tiers: {', '.join(TIERS)})")
     data = read_yaml_file(path, error_cls=SpecError)
     if not isinstance(data, dict):
         raise SpecError(path, "", "an experiment spec must be a YAML mapping")

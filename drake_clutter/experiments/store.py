@@ -77,12 +77,18 @@ class StoreError(InputError):
 class Store:
     """An open results store (see the module docstring). Use as a context manager."""
 
-    def __init__(self, path: str | Path, create: bool = True):
+    def __init__(self, path: str | Path, create: bool = True, read_only: bool = False):
+        """Opens the store at ``path``: created where missing (``create``), or an existing
+        one; ``read_only``: an existing store opened for reading (SQLite's ``mode=ro``), which
+        must carry the store's ``meta.schema`` row: any other file is refused with a
+        StoreError and left as it was (a store of an older schema is opened to be migrated)."""
         self.path = Path(path)
-        if not create and not self.path.is_file():
+        if (read_only or not create) and not self.path.is_file():
             raise StoreError(self.path, "", "no such store file")
         if create and not self.path.resolve().parent.is_dir():
             raise StoreError(self.path, "", "its directory does not exist")
+        if read_only and self._open_read_only():
+            return
         try:
             self.db = sqlite3.connect(self.path, isolation_level=None, timeout=30.0)
             self.db.execute("PRAGMA journal_mode=WAL")
@@ -90,6 +96,28 @@ class Store:
             self._init_schema()
         except sqlite3.DatabaseError as exc:
             raise StoreError(self.path, "", f"not a usable experiment store: {exc}") from None
+
+    def _open_read_only(self) -> bool:
+        """Opens the file for reading if it is a store of this schema (True); False for a store
+        of an older schema (it is then opened to be migrated); a StoreError for anything else."""
+        uri = f"{self.path.resolve().as_uri()}?mode=ro"
+        db = sqlite3.connect(uri, uri=True, isolation_level=None, timeout=30.0)
+        try:
+            row = db.execute("SELECT value FROM meta WHERE key='schema'").fetchone()
+        except sqlite3.DatabaseError:  # not SQLite, or SQLite without the store's tables
+            row = None
+        if row is None:
+            db.close()
+            raise StoreError(self.path, "", "not an experiment store (no meta.schema)")
+        if row[0] == SCHEMA_VERSION:
+            self.db = db
+            return True
+        db.close()
+        if row[0] not in _MIGRATIONS:
+            raise StoreError(self.path, "meta.schema",
+                             f"schema {row[0]}, this version reads {SCHEMA_VERSION} "
+                             f"(and {', '.join(_MIGRATIONS)})")
+        return False
 
     def _init_schema(self) -> None:
         with self.transaction():
@@ -223,7 +251,7 @@ def stored_plans(dbs: Sequence[str], configurations: Sequence[str] = ()
     order; the digest is the SHA-1 of the knots (T + 1, 8): two rows with one digest hold the
     same plan (the same baseline stored under two configurations, say)."""
     for db in dbs:
-        with Store(db, create=False) as store:
+        with Store(db, read_only=True) as store:
             rows = store.rows()
         for row in rows:
             data = (row["plan"] or {}).get("trajectory")

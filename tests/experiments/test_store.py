@@ -205,3 +205,53 @@ def test_stored_plans_reads_each_trajectory_with_a_digest_of_its_knots(tmp_path)
     assert digests[0] == digests[1] == digests[3] != digests[2]
     assert np.array_equal(found[2][2].q, np.full((3, 8), 0.2))
     assert [row["angle"] for _, row, _, _ in stored_plans(dbs, ["other"])] == [0]
+
+
+def _not_stores(tmp_path: Path) -> dict[str, Path]:
+    """An empty file, someone else's SQLite file and a text file."""
+    empty = tmp_path / "empty.db"
+    empty.write_bytes(b"")
+    foreign = tmp_path / "users.db"
+    with sqlite3.connect(foreign) as con:
+        con.execute("CREATE TABLE users (name TEXT)")
+        con.execute("INSERT INTO users VALUES ('ada')")
+    con.close()
+    text = tmp_path / "notes.txt"
+    text.write_text("not a database\n" * 50)
+    return {"empty": empty, "foreign": foreign, "text": text}
+
+
+@pytest.mark.parametrize("command", ["report", "rejudge"])
+def test_reading_a_file_that_is_not_a_store_refuses_it_and_leaves_it_as_it_was(
+        tmp_path, capsys, command):
+    for name, path in _not_stores(tmp_path).items():
+        before = path.read_bytes()
+        args = (["report", str(path), "--out", str(tmp_path / "out")] if command == "report"
+                else ["experiment", "rejudge", str(path), "--db", str(tmp_path / "new.db"),
+                      "--set", "evaluation.max_static_force=75"])
+        assert main(args) == 2, name
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "not an experiment store" in err[0] and path.name in err[0]
+        assert path.read_bytes() == before, name
+        assert not Path(f"{path}-wal").exists() and not Path(f"{path}-shm").exists()
+        assert not (tmp_path / "new.db").exists()
+
+
+def test_a_store_opened_for_reading_cannot_be_written(tmp_path):
+    with Store(tmp_path / "r.db") as store:
+        store.put(_unit(), _ok())
+    with Store(tmp_path / "r.db", read_only=True) as store:
+        assert store.count() == 1
+        with pytest.raises(sqlite3.OperationalError, match="readonly"):
+            store.put(_unit(angle=1), _ok())
+
+
+def test_report_out_under_a_file_is_one_line_naming_out(tmp_path, capsys):
+    with Store(tmp_path / "r.db") as store:
+        store.put(_unit(), _ok())
+    plain = tmp_path / "plain.txt"
+    plain.write_text("x")
+    for out in (plain, plain / "report"):
+        assert main(["report", str(tmp_path / "r.db"), "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "--out" in err[0] and "plain.txt" in err[0]

@@ -21,6 +21,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
+from drake_clutter.cli import OneLineParser
 from drake_clutter.common.config import Config, config_from_data, load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 
@@ -49,7 +50,7 @@ def picture(row_pair: tuple[dict, dict], config: Config, out: Path, frames: int)
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(description=__doc__.splitlines()[0])
     parser.add_argument("db", help="an experiment store with the baseline and the planner")
     parser.add_argument("--out", required=True, help="folder for the PNGs")
     parser.add_argument("--planner", default="push", help="the planner shown beside the "

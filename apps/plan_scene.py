@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
+from drake_clutter.cli import OneLineParser
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS
@@ -208,7 +209,7 @@ def replay(scene, config, plans: dict, choice, variant: str, html: str | None,
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default=DEFAULT_SCENE,
                         help=f"shipped scene name or YAML file (default: {DEFAULT_SCENE})")
     parser.add_argument("--planner", choices=(*planner_names(), ALL_PLANNERS),

@@ -10,10 +10,10 @@ output folder, a malformed size, no chromium) prints one line and exits 2.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
+from drake_clutter.cli import OneLineParser
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.viz.screenshot import BUDGET_MS, ChromiumMissing, screenshot
 
@@ -26,7 +26,7 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = OneLineParser(description=__doc__.splitlines()[0])
     parser.add_argument("html", help="a static HTML page written by --html")
     parser.add_argument("png", help="the picture to write")
     parser.add_argument("--size", default="1200x600", help="window WIDTHxHEIGHT in px")

@@ -21,8 +21,7 @@ from collections import defaultdict
 import numpy as np
 
 from drake_clutter.common.config import ReportConfig
-from drake_clutter.experiments.paired import (
-    bootstrap_interval, row_grade, row_p_success, verdict)
+from drake_clutter.experiments.paired import bootstrap_interval, row_grade, row_p_success, verdict
 from drake_clutter.experiments.report import table_iii
 from drake_clutter.experiments.store import Store
 

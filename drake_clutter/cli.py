@@ -30,7 +30,7 @@ from drake_clutter.scene.generators import GenerationError
 ALL_PLANNERS = "both"  # --planner: the compared planners (registry.COMPARED), in that order
 
 
-class _OneLineParser(argparse.ArgumentParser):
+class OneLineParser(argparse.ArgumentParser):
     """argparse that reports a usage error as one line and exits 2."""
 
     def error(self, message: str):  # noqa: D102 - argparse API
@@ -271,11 +271,11 @@ def build_parser() -> argparse.ArgumentParser:
     from drake_clutter.planners.registry import planner_names
     from drake_clutter.robot.pr2 import VARIANTS
 
-    parser = _OneLineParser(prog="drake-clutter", description=__doc__.splitlines()[0])
-    groups = parser.add_subparsers(dest="group", required=True, parser_class=_OneLineParser)
+    parser = OneLineParser(prog="drake-clutter", description=__doc__.splitlines()[0])
+    groups = parser.add_subparsers(dest="group", required=True, parser_class=OneLineParser)
 
     scene = groups.add_parser("scene", help="generate, validate, list and show scenes")
-    scene_cmds = scene.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
+    scene_cmds = scene.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     gen = scene_cmds.add_parser("generate", help="generate a random scene (Sec. VI-B)")
     gen.add_argument("--kind", choices=("bookshelf", "fridge"), required=True)
     gen.add_argument("--objects", type=int, required=True, help="boxes, the target included")
@@ -328,7 +328,7 @@ def build_parser() -> argparse.ArgumentParser:
     plan.set_defaults(func=_cmd_plan)
 
     exp = groups.add_parser("experiment", help="run experiments (Sec. VI-B) into a store")
-    exp_cmds = exp.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
+    exp_cmds = exp.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     run = exp_cmds.add_parser("run", help="run a spec's missing units (resumable)")
     run.add_argument("spec", help="an experiment spec (YAML) or a tier: smoke, small, paper, "
                      "behaviours, probe, probe_half, heldout, candidates")
@@ -362,7 +362,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep.set_defaults(func=_cmd_report)
 
     cfg = groups.add_parser("config", help="inspect the configuration")
-    cfg_cmds = cfg.add_subparsers(dest="command", required=True, parser_class=_OneLineParser)
+    cfg_cmds = cfg.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     cshow = cfg_cmds.add_parser("show", help="print the effective configuration as YAML")
     _add_config_args(cshow)
     cshow.set_defaults(func=_cmd_config_show)

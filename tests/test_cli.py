@@ -123,11 +123,25 @@ def test_plan_scene_app_writes_html_of_default_scene(tmp_path):
                                          (["--angles", "0"], "--angles"),
                                          (["--set", "physics.iterations=-1"], "physics"),
                                          (["--set", "push_search.members=0"], "push_search"),
-                                         (["--iterations", "30"], "--iterations")])
+                                         (["--iterations", "30"], "--iterations"),
+                                         (["--planner", "nope"], "--planner"),
+                                         (["--jobs", "two"], "--jobs")])
 def test_plan_scene_app_bad_options_exit_2(args, field):
     result = subprocess.run([sys.executable, "apps/plan_scene.py", *args, "--no-browser"],
                             cwd=REPO, capture_output=True, text=True, timeout=300)
     assert result.returncode == 2 and field in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("app, args", [
+    ("apps/screenshot.py", ["--size", "big", "a.html", "b.png"]),
+    ("apps/behaviour_pictures.py", ["--frames", "many", "x.db", "--out", "o"]),
+    ("apps/screenshot.py", []),
+])
+def test_every_app_reports_a_bad_argument_in_one_line(app, args):
+    result = subprocess.run([sys.executable, app, *args], cwd=REPO, capture_output=True,
+                            text=True, timeout=300)
+    assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
 
 

@@ -66,14 +66,16 @@ class PhiFindings:
     """What one member's rollout of a plan showed, before the classes' precedence: the plan's
     joint or speed limit violation ("" for none), its deepest press on a box's top with the boxes at
     rest (m; recorded, not read; None where not measured: the short form), phi's largest jam
-    measure over the path and the hold (m; None where phi failed), whether phi failed, the boxes fallen, the obstacles tipped, why the target is
-    not grasped ("" when it is), the boxes tipped or fallen (the target included), and whether the
-    rollout was stopped (or not run) once a kinematic failure was certain (the box fates are then
-    not read: `judge_paths` with ``complete=False``). How near the box fates came to the classes'
-    limits (None where not read): the largest obstacle tilt (rad), the largest approach of a box
-    to the board's edge (1 - its distance inside the footprint at the end over that at the start,
-    unitless, at least 1 for a fallen box), the target's distance from the pre-grasp zone
-    (`grading.target_zone_ratio`, unitless) and the deepest intrusion of another box into it (m)."""
+    measure over the path and the hold (m; None where phi failed), whether phi failed, the
+    boxes fallen, the obstacles tipped, why the target is not grasped ("" when it is), the
+    boxes tipped or fallen (the target included), and whether the rollout was stopped (or not
+    run) once a kinematic failure was certain (the box fates are then not read: `judge_paths`
+    with ``complete=False``). How near the box fates came to the classes' limits (None where
+    not read): the largest obstacle tilt (rad), the largest approach of a box to the board's
+    edge (1 - its distance inside the footprint at the end over that at the start, unitless, at
+    least 1 for a fallen box), the target's distance from the pre-grasp zone
+    (`grading.target_zone_ratio`, unitless) and the deepest intrusion of another box into it
+    (m)."""
 
     limit: str = ""
     press: float | None = 0.0
@@ -417,14 +419,15 @@ def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
 def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, config: Config,
                 geometry: ArmGeometry, pool=None, members: Sequence[int] | None = None,
                 complete: bool = True) -> dict[str, PhiVerdict]:
-    """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's ensemble
-    members ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet the
-    same members, each member's phi pruned for all of them and rolled out from each path's own start
-    (`judged_rollouts`). ``complete=False`` reads the same classes with less work: a path out of the
-    limits is not rolled out, a rollout stops once its jam reads a kinematic failure (its
-    findings then say ``stopped`` and hold no box fates), and the press is not measured. ``pool`` (a `phi.workers.WorkerPool`): the
-    members are rolled out in its workers, one member a task (the same verdicts; each worker builds
-    its own arm). ``geometry``: the capsule arm with the boxes at rest (`PlanningContext.arm`)."""
+    """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's ensemble members
+    ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet the same
+    members, each member's phi pruned for all of them and rolled out from each path's own start
+    (`judged_rollouts`). ``complete=False`` reads the same classes with less work: a path out
+    of the limits is not rolled out, a rollout stops once its jam reads a kinematic failure
+    (its findings then say ``stopped`` and hold no box fates), and the press is not measured.
+    ``pool`` (a `phi.workers.WorkerPool`): the members are rolled out in its workers, one
+    member a task (the same verdicts; each worker builds its own arm). ``geometry``: the
+    capsule arm with the boxes at rest (`PlanningContext.arm`)."""
     checks = {name: plan_checks(scene, geometry, q, times, config, press=complete)
               for name, q in paths.items()}
     order = list(range(config.ensemble.members) if members is None else members)

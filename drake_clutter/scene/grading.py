@@ -92,7 +92,8 @@ def edge_distance(scene: Scene, p_WB: np.ndarray) -> np.ndarray:
     shelf = scene.shelf
     p = np.atleast_2d(p_WB)
     cx, cy = shelf.center_xy
-    return np.minimum(shelf.depth / 2 - np.abs(p[:, 0] - cx), shelf.width / 2 - np.abs(p[:, 1] - cy))
+    return np.minimum(shelf.depth / 2 - np.abs(p[:, 0] - cx),
+                      shelf.width / 2 - np.abs(p[:, 1] - cy))
 
 
 def box_overlap(p_a, R_a, half_a, p_b, R_b, half_b) -> float:

@@ -264,6 +264,13 @@ def _check(args) -> None:
         folder = Path(value) if flag == "--costs" else Path(value).parent
         if not folder.is_dir():
             raise InputError(value, flag, f"no such directory: {folder}")
+    if args.picture is not None:
+        from drake_clutter.viz.screenshot import ChromiumMissing, chromium_path
+
+        try:
+            chromium_path()  # checked before planning: the picture needs it at the end
+        except ChromiumMissing as exc:
+            raise InputError("<command line>", "--picture", str(exc)) from None
 
 
 def main(argv=None) -> int:

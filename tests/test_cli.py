@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -143,6 +144,21 @@ def test_every_app_reports_a_bad_argument_in_one_line(app, args):
                             text=True, timeout=300)
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+
+
+def test_a_picture_without_chromium_is_refused_before_planning(tmp_path):
+    """No chromium on PATH: one line naming --picture and the package, exit 2, in seconds
+    (nothing planned)."""
+    bare = tmp_path / "bin"  # a PATH with no chromium on it
+    bare.mkdir()
+    result = subprocess.run([sys.executable, "apps/plan_scene.py", "--picture",
+                             str(tmp_path / "p.png"), "--no-browser"], cwd=REPO,
+                            capture_output=True, text=True, timeout=120,
+                            env={**os.environ, "PATH": str(bare)})
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--picture" in lines[0] and "apt-get install chromium" in lines[0]
+    assert "alpha" not in result.stdout  # no table: nothing was planned
 
 
 def test_plan_scene_app_bad_scene_exit_2():

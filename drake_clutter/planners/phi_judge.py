@@ -207,9 +207,15 @@ class PhiVerdict:
         """Mean margin over the members (`member_margin`; lower is nearer to success)."""
         return float(np.mean([r.margin for r in self.readings]))
 
-    def key(self) -> tuple[float, float, float]:
-        """The order of plans, best first: higher P(success), then lower expected grade,
-        then fewer boxes disturbed."""
+    def key(self) -> tuple[float, float, float, float]:
+        """The order of plans, best first: higher P(success), then lower expected grade, then
+        the lower mean margin (nearer the classes' limits' good side), then fewer boxes
+        disturbed."""
+        return (-self.p_success, self.expected_grade, self.margin, self.disturbed)
+
+    def class_key(self) -> tuple[float, float, float]:
+        """`key` without the margin: the classes' reading alone (P(success), the expected
+        grade, the boxes disturbed)."""
         return (-self.p_success, self.expected_grade, self.disturbed)
 
     def to_data(self) -> dict:

@@ -200,7 +200,7 @@ def test_the_zone_ratio_passes_1_exactly_where_the_zone_test_names_a_reason():
 def test_the_margin_orders_failures_by_how_near_they_came(setting):
     """The target pushed 5 cm and 10 cm deeper: both fail the grasp, the nearer with the
     smaller margin; a success reads a margin below 1, a jam its depth over the limit, a plan
-    out of the limits an infinite one."""
+    out of the limits an infinite one; the verdict order puts the margin after the classes."""
     scene, q, geometry, states = setting
     rest = geometry.rest_pose("target").translation()
     near = _read(setting, _moved(states, "target", RigidTransform(rest + [0.05, 0, 0])))
@@ -215,6 +215,8 @@ def test_the_margin_orders_failures_by_how_near_they_came(setting):
     nearer = PhiVerdict((near, near))
     farther = PhiVerdict((far, far))
     assert nearer.margin < farther.margin
+    assert nearer.key() < farther.key()  # the same classes: the margin orders them
+    assert PhiVerdict((_read(setting, states), far)).key() < nearer.key()  # P(success) first
 
 
 def test_a_box_pushed_toward_the_board_edge_reads_nearer_a_fall(setting):

@@ -13,12 +13,14 @@ yaws, knots at the same times, the first the baseline's own), in rounds (``push_
 2. **Later rounds**: the ``elite`` best bent paths so far each get ``perturbations`` copies
    with their via-points jittered (`perturb`), built, checked and judged in the same members
    (their verdicts compare with the earlier ones: same worlds, same seeds).
-3. **The pick**: the best verdict (`PhiVerdict.key`: P(success), expected grade, boxes
-   disturbed; ties to the earlier path, starts first).
-4. **The veto**: a bent pick replaces the best start only if its verdict on ``veto_members``
-   members the search never saw (indices K .. K + veto - 1) is strictly better than the best
-   start's there. Otherwise the best start is returned; that is also the answer when every
-   start reads P(success) >= ``stop_at`` already (no member drawn) or no member is feasible.
+3. **The pick**: the best verdict (`PhiVerdict.key`: P(success), expected grade, the margin
+   (how near the classes' limits), boxes disturbed; ties to the earlier path, starts first).
+   The elite of a later round is ranked the same way, so paths that all fail are perturbed
+   from those that came nearest.
+4. **The veto**: a bent pick replaces the best start only if its classes' reading on
+   ``veto_members`` members the search never saw (indices K .. K + veto - 1;
+   `PhiVerdict.class_key`, the margin left out) is strictly better than the best start's
+   there. Otherwise the best start is returned; that is also the answer when every start reads P(success) >= ``stop_at`` already (no member drawn) or no member is feasible.
 5. **The time budget**: no round starts once the search has run ``time_budget`` seconds
    (``record["stopped"]`` says after how many); the pick and the veto are made on what was
    judged.
@@ -202,14 +204,15 @@ def _perturb_round(s: Search, rng: np.random.Generator, round_: int) -> list[str
 
 
 def _veto(s: Search, pick: str, best_start: str) -> tuple[str, dict | None]:
-    """The path returned: ``pick`` if it is a start, or if it also beats ``best_start`` on
-    the held-out members; else ``best_start``. The veto's verdicts (None: no veto run)."""
+    """The path returned: ``pick`` if it is a start, or if its classes' reading also beats
+    ``best_start``'s on the held-out members; else ``best_start``. The veto's verdicts (None:
+    no veto run)."""
     if s.samples[pick].member is None:
         return pick, None
     cfg = s.config.push_search
     held_out = range(cfg.members, cfg.members + cfg.veto_members)
     verdicts = s.judge([pick, best_start], members=held_out)
-    wins = verdicts[pick].key() < verdicts[best_start].key()
+    wins = verdicts[pick].class_key() < verdicts[best_start].class_key()
     return (pick if wins else best_start), {
         "members": list(held_out), "wins": wins,
         **{n: {"p_success": v.p_success, "expected_grade": v.expected_grade}
@@ -218,6 +221,8 @@ def _veto(s: Search, pick: str, best_start: str) -> tuple[str, dict | None]:
 
 def _summary(verdict: PhiVerdict, sample: Sample) -> dict:
     """A judged path's line in the record."""
+    margin = verdict.margin
     return {"p_success": verdict.p_success, "expected_grade": verdict.expected_grade,
+            "margin": margin if np.isfinite(margin) else None,
             "kinds": [r.kind for r in verdict.readings],
             "member": None if sample.member is None else sample.member.to_data()}

@@ -20,7 +20,8 @@ yaws, knots at the same times, the first the baseline's own), in rounds (``push_
 4. **The veto**: a bent pick replaces the best start only if its classes' reading on
    ``veto_members`` members the search never saw (indices K .. K + veto - 1;
    `PhiVerdict.class_key`, the margin left out) is strictly better than the best start's
-   there. Otherwise the best start is returned; that is also the answer when every start reads P(success) >= ``stop_at`` already (no member drawn) or no member is feasible.
+   there. Otherwise the best start is returned; that is also the answer when every start
+   reads P(success) >= ``stop_at`` already (no member drawn) or no member is feasible.
 5. **The time budget**: no round starts once the search has run ``time_budget`` seconds
    (``record["stopped"]`` says after how many); the pick and the veto are made on what was
    judged.

@@ -329,6 +329,8 @@ class PushSearchConfig:
     jitter_progress: float = bounded(0.04, ge=0.0)
     # return the first straight start that keeps off the boxes without a search, flag; ours
     clear_first: bool = True
+    # rank the judged paths by the margin beneath the classes (PhiVerdict.key), flag; ours
+    margin: bool = True
     # return the baseline's own path when no judged path reads success or partial in phi, flag; ours
     fallback: bool = True
     # P(success) in phi of the best start at which the search does not run, unitless; ours

@@ -137,9 +137,13 @@ class Search:
         return self._frames[start]
 
     def ranked(self, names) -> list[str]:
-        """The judged paths ``names``, best first (ties to the earlier)."""
+        """The judged paths ``names``, best first (ties to the earlier): by `PhiVerdict.key`,
+        or by its classes' reading alone (`PhiVerdict.class_key`) without
+        ``push_search.margin``."""
         order = {n: i for i, n in enumerate(self.samples)}
-        return sorted(names, key=lambda n: (*self.verdicts[n].key(), order[n]))
+        margin = self.config.push_search.margin
+        return sorted(names, key=lambda n: (*(self.verdicts[n].key() if margin
+                                              else self.verdicts[n].class_key()), order[n]))
 
     def best(self, names) -> str:
         """The best judged path among ``names`` (ties to the earlier)."""

@@ -21,7 +21,7 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from drake_clutter.cli import OneLineParser
+from drake_clutter.common.arguments import OneLineParser
 from drake_clutter.common.config import Config, config_from_data, load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 

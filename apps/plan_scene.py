@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_clutter.cli import OneLineParser
+from drake_clutter.common.arguments import OneLineParser
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS

@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from drake_clutter.cli import OneLineParser
+from drake_clutter.common.arguments import OneLineParser
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.viz.screenshot import BUDGET_MS, ChromiumMissing, screenshot
 

@@ -24,18 +24,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from drake_clutter.common.arguments import OneLineParser
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.scene.generators import GenerationError
 
 ALL_PLANNERS = "both"  # --planner: the compared planners (registry.COMPARED), in that order
-
-
-class OneLineParser(argparse.ArgumentParser):
-    """argparse that reports a usage error as one line and exits 2."""
-
-    def error(self, message: str):  # noqa: D102 - argparse API
-        print(f"{self.prog}: error: {message}", file=sys.stderr)
-        raise SystemExit(EXIT_USAGE)
 
 
 def _add_config_args(parser: argparse.ArgumentParser) -> None:

@@ -176,6 +176,9 @@ def test_bad_spec_on_the_command_line_is_one_line_and_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and str(path) in err and "angles" in err
     assert main(["experiment", "run", "no_such_tier", "--db", str(tmp_path / "r.db")]) == 2
+    assert "neither a spec file nor a tier (tiers: smoke" in capsys.readouterr().err
+    assert main(["experiment", "run", str(tmp_path / "gone.yaml"), "--db",
+                 str(tmp_path / "r.db")]) == 2
     assert "no such file" in capsys.readouterr().err
 
 

@@ -283,7 +283,8 @@ def test_robust_columns_take_each_scenes_best_angle_and_every_replay():
     assert t4["partial_success"]["robust_pct"] == pytest.approx(100 * 2 / 12)
     (summary,) = paired_comparison(rows)
     assert summary["p_success_diff"] == pytest.approx(((1 - .75) + (.5 - .25) + (.5 - 0)) / 3)
-    assert summary["expected_grade_diff"] < 0  # physics lower, i.e. better
+    # expected grades, physics - baseline: a0 0 - 0.5, a1 1.0 - 1.5, b0 0.5 - 1.5
+    assert summary["expected_grade_diff"] == pytest.approx((-0.5 - 0.5 - 1.0) / 3)
 
 
 def test_the_selection_ceiling_takes_the_better_plan_of_each_pair():

@@ -743,7 +743,7 @@ BEHAVIOUR_SCENES = load_spec("behaviours")[0].shipped  # the experiment tier's f
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=False, reason="the physics planner does not beat the baseline yet "
+@pytest.mark.xfail(strict=True, reason="the physics planner does not beat the baseline yet "
                    "(behaviours tier, the defaults of 2026-11-27: 5 better / 18 same / 1 "
                    "worse, P(success) equal; see docs/log/physics_planner.md)")
 def test_physics_plans_beat_the_baseline_on_the_behaviour_scenes():

@@ -169,6 +169,7 @@ def run_experiment(spec, spec_file: str, db_path, executor: str = "local", worke
     units = expand(spec, spec_file)
     check_scenes(spec, spec_file)
     with Store(db_path) as store:
+        store.claim()
         for unit in {u.config_name: u for u in units}.values():
             config = resolve_config(spec, unit.config_name, spec_file)
             store.add_configuration(unit.config_hash, unit.config_name, unit.overrides,

@@ -102,6 +102,7 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
                 "num_objects": row["num_objects"]}
         tasks.append({**unit, "row": row, "config": config_data})
     with Store(destination) as out:
+        out.claim()
         for new_hash, config_data, stored in hashes.values():
             out.add_configuration(new_hash, stored["name"],
                                   list(stored["overrides"]) + list(overrides), config_data)

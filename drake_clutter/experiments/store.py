@@ -13,7 +13,9 @@ Durability: WAL journal with ``synchronous=FULL``, and each result is inserted i
 transaction as it arrives, by the one process that runs the executor. A run killed at any
 moment (SIGKILL included) leaves every committed row intact and no partial row; SQLite's
 journal rolls back an interrupted transaction on the next open. Re-running a spec skips the
-keys already present (`done_keys`).
+keys already present (`done_keys`). A writing run claims the store (`claim`: an advisory lock
+on the file, released with its process); a second run is refused. A store opened
+``read_only`` is SQLite's ``mode=ro`` and must carry ``meta.schema``.
 
 Formats: ``meta.schema`` names the store's; a store of an older schema gains the columns it
 lacks when opened (its rows keep NULL there and read as before); an unknown schema stops with
@@ -28,6 +30,7 @@ has kind ``planner_failure`` with an empty ``error`` and is never retried.
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import sqlite3
@@ -141,9 +144,27 @@ class Store:
         """A context manager: BEGIN IMMEDIATE ... COMMIT (ROLLBACK on an exception)."""
         return _Transaction(self.db)
 
+    def claim(self) -> None:
+        """Claims the store for one writing run (an advisory lock on the file, held until
+        `close` or the process ends, a kill included); a StoreError when another run holds
+        it. SQLite's own locks, which this does not touch, keep each row whole; this keeps two
+        runs from planning the same units."""
+        handle = open(self.path, "rb")  # noqa: SIM115 - held until close
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.close()
+            raise StoreError(self.path, "", "another run is writing to this store: wait for "
+                             "it, or give this run another --db") from None
+        self._claim = handle
+
     def close(self) -> None:
-        """Closes the connection."""
+        """Closes the connection (and releases the run's claim)."""
         self.db.close()
+        claim = getattr(self, "_claim", None)
+        if claim is not None:
+            claim.close()
+            self._claim = None
 
     def __enter__(self) -> Store:
         return self

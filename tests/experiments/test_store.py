@@ -255,3 +255,20 @@ def test_report_out_under_a_file_is_one_line_naming_out(tmp_path, capsys):
         assert main(["report", str(tmp_path / "r.db"), "--out", str(out)]) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "--out" in err[0] and "plain.txt" in err[0]
+
+
+def test_a_second_run_on_a_store_being_written_is_refused_in_one_line(tmp_path, capsys):
+    from drake_clutter.testing.specs import TINY_SPEC
+
+    spec = tmp_path / "tiny.yaml"
+    spec.write_text(TINY_SPEC)
+    db = tmp_path / "r.db"
+    with Store(db) as first:
+        first.put(_unit(), _ok())
+        first.claim()  # a run writing to it
+        assert main(["experiment", "run", str(spec), "--db", str(db), "--no-progress"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "another run is writing to this store" in err[0]
+        assert first.count() == 1  # nothing planned, nothing written
+    with Store(db) as again:  # the claim ends with its holder
+        again.claim()

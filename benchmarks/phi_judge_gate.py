@@ -128,24 +128,29 @@ def _margin_key(v: dict) -> tuple:
             float(np.mean(v["disturbed"])))
 
 
+def differing_pairs(plans, verdicts, key):
+    """(judge's sign, phi's verdict of the first, of the second) for each pair of one
+    initialization ``key`` whose robust P(success) differs."""
+    ps = plans[key]
+    for i, a in enumerate(ps):
+        for b in ps[i + 1:]:
+            if a["p_success"] != b["p_success"]:
+                yield (np.sign(a["p_success"] - b["p_success"]), verdicts[key][a["digest"]],
+                       verdicts[key][b["digest"]])
+
+
 def pair_agreement(plans, verdicts) -> dict[str, tuple[int, int, int]]:
     """(agree, disagree, ties) over the pairs whose robust P(success) differs, by phi's
     P(success) alone, by phi's verdict order without the margin (P(success), expected grade,
     boxes disturbed) and with it (the margin after the expected grade)."""
     out = {"p_success": [0, 0, 0], "verdict": [0, 0, 0], "verdict with margin": [0, 0, 0]}
-    for key, ps in plans.items():
-        for i, a in enumerate(ps):
-            for b in ps[i + 1:]:
-                if a["p_success"] == b["p_success"]:
-                    continue
-                judge = np.sign(a["p_success"] - b["p_success"])
-                va, vb = verdicts[key][a["digest"]], verdicts[key][b["digest"]]
-                for name, phi in (("p_success", np.sign(va["p_success"] - vb["p_success"])),
-                                  ("verdict", _order(_phi_key(vb), _phi_key(va))),
-                                  ("verdict with margin",
-                                   _order(_margin_key(vb), _margin_key(va)))):
-                    slot = 2 if phi == 0 else 0 if phi == judge else 1
-                    out[name][slot] += 1
+    for key in plans:
+        for judge, va, vb in differing_pairs(plans, verdicts, key):
+            for name, phi in (("p_success", np.sign(va["p_success"] - vb["p_success"])),
+                              ("verdict", _order(_phi_key(vb), _phi_key(va))),
+                              ("verdict with margin", _order(_margin_key(vb), _margin_key(va)))):
+                slot = 2 if phi == 0 else 0 if phi == judge else 1
+                out[name][slot] += 1
     return {k: tuple(v) for k, v in out.items()}
 
 
@@ -156,18 +161,13 @@ def margin_gain(plans, verdicts, resamples: int = 10000, seed: int = 0
     a 95 % bootstrap interval over initializations (pairs of one initialization share plans,
     so they are resampled together); and the number of pairs."""
     per_init = []
-    for key, ps in plans.items():
+    for key in plans:
         rows = []
-        for i, a in enumerate(ps):
-            for b in ps[i + 1:]:
-                if a["p_success"] == b["p_success"]:
-                    continue
-                judge = np.sign(a["p_success"] - b["p_success"])
-                va, vb = verdicts[key][a["digest"]], verdicts[key][b["digest"]]
-                scores = [0.5 if o == 0 else float(o == judge)
-                          for o in (_order(_margin_key(vb), _margin_key(va)),
-                                    _order(_phi_key(vb), _phi_key(va)))]
-                rows.append(scores[0] - scores[1])
+        for judge, va, vb in differing_pairs(plans, verdicts, key):
+            scores = [0.5 if o == 0 else float(o == judge)
+                      for o in (_order(_margin_key(vb), _margin_key(va)),
+                                _order(_phi_key(vb), _phi_key(va)))]
+            rows.append(scores[0] - scores[1])
         if rows:
             per_init.append((sum(rows), len(rows)))
     if not per_init:

@@ -102,9 +102,7 @@ class PhiFindings:
     @staticmethod
     def from_data(data: dict) -> PhiFindings:
         """Inverse of `to_data`."""
-        return PhiFindings(str(data["limit"]),
-                           None if data["press"] is None else float(data["press"]),
-                           None if data["jam"] is None else float(data["jam"]),
+        return PhiFindings(str(data["limit"]), _number(data["press"]), _number(data["jam"]),
                            bool(data["failed"]), tuple(data["fallen"]), tuple(data["tipped"]),
                            str(data["grasp"]), int(data["disturbed"]),
                            bool(data.get("stopped", False)),
@@ -112,6 +110,7 @@ class PhiFindings:
 
 
 def _number(value) -> float | None:
+    """A stored number, or None where it was not measured."""
     return None if value is None else float(value)
 
 

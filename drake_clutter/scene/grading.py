@@ -27,11 +27,8 @@ def tilt_angle(R_WB: np.ndarray) -> np.ndarray:
 def off_the_board(scene: Scene, p_WB: np.ndarray) -> np.ndarray:
     """True where a box centre (rows of p_WB, W) is outside the board's footprint or below its
     top surface (Sec. III: "falls over the edge of the working surface")."""
-    shelf = scene.shelf
     p = np.atleast_2d(p_WB)
-    cx, cy = shelf.center_xy
-    outside = (np.abs(p[:, 0] - cx) > shelf.depth / 2) | (np.abs(p[:, 1] - cy) > shelf.width / 2)
-    return outside | (p[:, 2] < shelf.top_height)
+    return (edge_distance(scene, p) < 0.0) | (p[:, 2] < scene.shelf.top_height)
 
 
 def zone_extent(opening: float, config: EvaluationConfig) -> tuple[np.ndarray, np.ndarray]:

@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from drake_clutter.common.arguments import OneLineParser
+from drake_clutter.common.processes import Terminated, interrupt_on_sigterm
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.scene.generators import GenerationError
 
@@ -366,15 +367,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point; returns the exit status (0 ok, 2 bad input)."""
     args = build_parser().parse_args(argv)
     try:
-        return args.func(args)
+        with interrupt_on_sigterm():
+            return args.func(args)
     except InputError as exc:
         print(f"drake-clutter: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except GenerationError as exc:
         print(f"drake-clutter: error: scene generation failed: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        return 130
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (`processes.Terminated`)
+        return 143 if isinstance(exc, Terminated) else 130
 
 
 if __name__ == "__main__":

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 from typing import Any
 
 BOUNDS_KEY = "bounds"
+# the largest seed a field accepts: a 32-bit unsigned integer, what every seeded library takes
+SEED_MAX = 2**32 - 1
 
 
 @dataclass(frozen=True)

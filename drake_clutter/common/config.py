@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from drake_clutter.common.accepts import bounded, check
+from drake_clutter.common.accepts import SEED_MAX, bounded, check
 from drake_clutter.common.physics_config import (
     DynamicsConfig,
     EnsembleConfig,
@@ -60,9 +60,9 @@ class BoxRanges:
     """Uniform sampling ranges of a box's properties (Sec. VI-B: size, position, density)."""
 
     # range of each horizontal side of a box's footprint, m; ours
-    footprint: Range = bounded(Range(0.04, 0.10), gt=0.0)
+    footprint: Range = bounded(Range(0.04, 0.10), gt=0.0, le=1.0)
     # range of a box's height, m; ours
-    height: Range = bounded(Range(0.06, 0.24), gt=0.0)
+    height: Range = bounded(Range(0.06, 0.24), gt=0.0, le=1.0)
     # range of a box's density, kg/m^3; ours
     density: Range = bounded(Range(150.0, 900.0), gt=0.0)
     # range of a box's Coulomb friction coefficient, unitless; ours
@@ -76,15 +76,15 @@ class EnvironmentConfig:
     """One environment of Sec. VI-B: its board, walls and clutter levels."""
 
     # boxes per scene at each clutter level, the target included, count; Sec. VI-B
-    clutter_levels: tuple[int, ...] = bounded(ge=1)
+    clutter_levels: tuple[int, ...] = bounded(ge=1, le=40)
     # depth of the board along x, m; ours
-    board_depth: float = bounded(gt=0.0)
+    board_depth: float = bounded(gt=0.0, le=3.0)
     # width of the board along y, m; ours
-    board_width: float = bounded(gt=0.0)
+    board_width: float = bounded(gt=0.0, le=3.0)
     # thickness of the walls, m; None = no walls (the bookshelf); Sec. VI-B
-    wall_thickness: float | None = bounded(None, gt=0.0)
+    wall_thickness: float | None = bounded(None, gt=0.0, le=0.5)
     # height from the board top to the ceiling (fridge only), m; ours
-    interior_height: float | None = bounded(None, gt=0.0)
+    interior_height: float | None = bounded(None, gt=0.0, le=3.0)
 
 
 @dataclass(frozen=True)
@@ -106,9 +106,9 @@ class GeneratorConfig:
         interior_height=0.36,
     )
     # random scenes per clutter level (150 in all), count; Sec. VI-B
-    scenes_per_level: int = bounded(10, ge=1)
+    scenes_per_level: int = bounded(10, ge=1, le=10000)
     # base of the seeds of the named 'paper' scene set, seed; ours
-    paper_seed_base: int = bounded(2015, ge=0)
+    paper_seed_base: int = bounded(2015, ge=0, le=SEED_MAX)
     # thickness of the board, m; ours
     board_thickness: float = bounded(0.03, gt=0.0)
     # height of the board top above the floor, m; ours
@@ -129,11 +129,11 @@ class GeneratorConfig:
     # smallest gap between generated boxes, m; ours
     min_gap: float = bounded(0.005, ge=0.0)
     # rejection-sampling tries before a box's size is re-drawn, count; ours
-    max_tries_per_box: int = bounded(400, ge=1)
+    max_tries_per_box: int = bounded(400, ge=1, le=100000)
     # size re-draws before a scene attempt is abandoned, count; ours
-    max_redraws_per_box: int = bounded(60, ge=1)
+    max_redraws_per_box: int = bounded(60, ge=1, le=10000)
     # whole-scene attempts (same random stream) before giving up, count; ours
-    max_attempts: int = bounded(20, ge=1)
+    max_attempts: int = bounded(20, ge=1, le=1000)
 
     def relations(self):
         """(field, holds, what it must be) between this dataclass's fields."""
@@ -147,7 +147,7 @@ class WorldConfig:
     """Drake worlds: the kinematic planning world and the smooth-contact dynamics phi (Sec. V)."""
 
     # SAP step of dynamics worlds built directly (phi steps knot_time / substeps), s; ours
-    time_step: float = bounded(0.01, gt=0.0)
+    time_step: float = bounded(0.01, ge=1e-5)
     # hydroelastic modulus of phi's compliant boxes, Pa; ours
     hydroelastic_modulus: float = bounded(5.0e5, gt=0.0)
     # resolution hint of the compliant meshes, m; ours
@@ -184,15 +184,15 @@ class BaselineConfig:
     """The baseline planner (Sec. IV): approach angles, IK, swept-volume optimisation."""
 
     # approach angles per scene, count; Sec. VI-B
-    num_angles: int = bounded(14, ge=1)
+    num_angles: int = bounded(14, ge=1, le=180)
     # smallest approach angle alpha, about +z from the +x approach, rad; ours
     alpha_min: float = bounded(-1.0, gt=-1.5708, lt=1.5708)
     # largest approach angle alpha, rad; ours
     alpha_max: float = bounded(1.0, gt=-1.5708, lt=1.5708)
     # knots of a trajectory, start and pre-grasp included, count; ours
-    num_knots: int = bounded(30, ge=2)
+    num_knots: int = bounded(30, ge=2, le=500)
     # time between knots (a 5.8 s reach), s; ours
-    knot_time: float = bounded(0.2, gt=0.0)
+    knot_time: float = bounded(0.2, gt=0.0, le=10.0)
     # weight of c_static_hull, unitless; Sec. IV
     w_static_hull: float = bounded(80.0, ge=0.0)
     # weight of c_vel, unitless; Sec. IV
@@ -202,7 +202,7 @@ class BaselineConfig:
     # gripper point the pre-grasp pose and c_grasp put on the target ("pads"), choice; Sec. IV
     grasp_point: Literal["pads", "tool_frame"] = "pads"
     # dense collision-check samples per knot interval, count; ours
-    check_substeps: int = bounded(10, ge=1)
+    check_substeps: int = bounded(10, ge=1, le=1000)
     # penetration the dense collision check accepts, m; ours
     check_tolerance: float = bounded(0.001, ge=0.0)
     # grasp height h as a fraction of the target's height, unitless; ours
@@ -220,28 +220,28 @@ class BaselineConfig:
     # weight of ||q_start - q_pregrasp||^2 in the start pose's IK, unitless; ours
     ik_near_weight: float = bounded(1.0, ge=0.0)
     # SNOPT major / IPOPT iterations per IK attempt, count; ours
-    ik_max_iterations: int = bounded(200, ge=1)
+    ik_max_iterations: int = bounded(200, ge=1, le=100000)
     # nominal arm postures seeding IK after the neighbours' solutions, rad; ours
     ik_nominal_postures: tuple[ArmAngles, ...] = (
         bounded(((-0.12, -0.19, -2.51, -1.99, -2.37, -2.14, -0.32),
                  (-0.27, -0.35, -3.15, -2.07, 2.22, -1.67, -0.12),
                  (-0.70, 0.43, -1.57, -1.63, 2.77, -0.42, -1.64)), ge=-6.2832, le=6.2832))
     # further IK seeds, uniform within the joint limits, count; ours
-    ik_random_seeds: int = bounded(4, ge=0)
+    ik_random_seeds: int = bounded(4, ge=0, le=100)
     # random seed of those seeds (plus the angle's index), seed; ours
-    ik_seed: int = bounded(0, ge=0)
+    ik_seed: int = bounded(0, ge=0, le=SEED_MAX)
     # configurations per knot interval in the path optimisation's c_static_hull, count; ours
-    opt_substeps: int = bounded(2, ge=1)
+    opt_substeps: int = bounded(2, ge=1, le=100)
     # configurations per interval in a second pass if the dense check fails (0: none), count; ours
-    opt_refine_substeps: int = bounded(10, ge=0)
+    opt_refine_substeps: int = bounded(10, ge=0, le=100)
     # B-spline control points whose samples are the knots, count; ours
-    opt_control_points: int = bounded(10, ge=2)
+    opt_control_points: int = bounded(10, ge=2, le=200)
     # B-spline order (4 = cubic), count; ours
-    opt_spline_order: int = bounded(4, ge=2)
+    opt_spline_order: int = bounded(4, ge=2, le=10)
     # last knot fixed at the pre-grasp IK solution (else free under pose constraints), flag; Sec. IV
     fix_last_knot: bool = False
     # SNOPT major / IPOPT iterations of the path optimisation, count; ours
-    opt_max_iterations: int = bounded(100, ge=1)
+    opt_max_iterations: int = bounded(100, ge=1, le=100000)
     # per-knot joint move cap, a multiple of the PR2 speed limit x knot_time, unitless; ours
     velocity_limit_scale: float = bounded(1.0, gt=0.0)
     # SNOPT major optimality / IPOPT tol of the path optimisation, unitless; ours
@@ -267,9 +267,9 @@ class EvaluationConfig:
     """Hard-contact replay in Bullet and outcome classification (Sec. III)."""
 
     # Bullet's time step (4x Bullet's default rate: converged classes), s; ours
-    sim_dt: float = bounded(1.0 / 960.0, gt=0.0, le=0.01)
+    sim_dt: float = bounded(1.0 / 960.0, ge=1e-5, le=0.01)
     # longest simulated settling after the last knot, s; ours
-    settle_time_cap: float = bounded(3.0, ge=0.0)
+    settle_time_cap: float = bounded(3.0, ge=0.0, le=600.0)
     # speed below which a box counts as at rest, m/s; ours
     rest_speed: float = bounded(0.01, gt=0.0)
     # tilt beyond which a box has tipped over (Sec. III's class; 20 deg), rad; ours
@@ -277,11 +277,11 @@ class EvaluationConfig:
     # angular speed below which a box counts as at rest, rad/s; ours
     rest_angular_speed: float = bounded(0.1, gt=0.0)
     # time every box must stay at rest before settling stops, s; ours
-    rest_hold_time: float = bounded(0.1, ge=0.0)
+    rest_hold_time: float = bounded(0.1, ge=0.0, le=60.0)
     # Bullet steps per motor update and check (60 Hz at sim_dt), count; ours
-    monitor_interval: int = bounded(16, ge=1)
+    monitor_interval: int = bounded(16, ge=1, le=10000)
     # Bullet's solver iterations (5x Bullet's default: converged classes), count; ours
-    solver_iterations: int = bounded(50, ge=1)
+    solver_iterations: int = bounded(50, ge=1, le=10000)
     # Bullet's contact breaking threshold (Bullet's default; process-global), m; ours
     contact_breaking_threshold: float = bounded(0.02, gt=0.0)
     # friction coefficient of the arm links, unitless; ours
@@ -295,7 +295,7 @@ class EvaluationConfig:
     # force into the shelf (arm, or box beyond its weight) that fails kinematically, N; ours
     max_static_force: float = bounded(50.0, gt=0.0)
     # window over which the shelf forces are averaged, s; ours
-    force_window: float = bounded(0.2, gt=0.0)
+    force_window: float = bounded(0.2, gt=0.0, le=10.0)
     # how far a plan may pass a joint limit, rad (m for the gripper); ours
     joint_limit_tolerance: float = bounded(1e-3, ge=0.0)
     # plan speeds allowed, a multiple of the PR2's joint speed limits, unitless; ours
@@ -309,17 +309,17 @@ class EvaluationConfig:
     # lift check (beyond the paper): rise of the tool frame, m; ours
     lift_height: float = bounded(0.05, gt=0.0)
     # lift check: time to close the fingers, s; ours
-    lift_close_time: float = bounded(1.0, ge=0.0)
+    lift_close_time: float = bounded(1.0, ge=0.0, le=60.0)
     # lift check: time of the rise, s; ours
-    lift_time: float = bounded(1.0, gt=0.0)
+    lift_time: float = bounded(1.0, gt=0.0, le=60.0)
     # lift check: time held at the top before looking, s; ours
-    lift_hold_time: float = bounded(0.5, ge=0.0)
+    lift_hold_time: float = bounded(0.5, ge=0.0, le=60.0)
     # lift check: fraction of lift_height the target must rise to count as lifted, unitless; ours
     lift_fraction: float = bounded(0.8, gt=0.0, le=1.0)
     # robust judge (beyond the paper): replays per plan, the first nominal (1: nominal), count; ours
-    robust_replays: int = bounded(1, ge=1)
+    robust_replays: int = bounded(1, ge=1, le=1000)
     # robust judge: seed of the perturbed worlds (replay k uses [seed, k]), integer; ours
-    robust_seed: int = bounded(0, ge=0)
+    robust_seed: int = bounded(0, ge=0, le=SEED_MAX)
     # robust judge: half-range of each box's initial shift along x and y (uniform), m; ours
     robust_position: float = bounded(0.003, ge=0.0)
     # robust judge: half-range of each box's initial yaw change (uniform; 3 deg), rad; ours
@@ -353,7 +353,7 @@ class VizConfig:
     # contact forces below this are not drawn, N; ours
     min_force: float = bounded(0.05, ge=0.0)
     # arrows per copy and frame at most (the largest forces), count; ours
-    max_arrows: int = bounded(24, ge=0)
+    max_arrows: int = bounded(24, ge=0, le=10000)
     # radius of an arrow's shaft (the cone's base is twice as wide), m; ours
     arrow_radius: float = bounded(0.004, gt=0.0)
     # length of an arrow's tip, m; ours
@@ -375,13 +375,13 @@ class ReportConfig:
     """Statistics of the experiment report (beyond the paper): all ours."""
 
     # bootstrap resamples of the paired comparison's confidence intervals, count; ours
-    bootstrap_resamples: int = bounded(10000, ge=1)
+    bootstrap_resamples: int = bounded(10000, ge=1, le=10000000)
     # seed of the bootstrap resampling, integer; ours
-    bootstrap_seed: int = bounded(0, ge=0)
+    bootstrap_seed: int = bounded(0, ge=0, le=SEED_MAX)
     # coverage of the confidence intervals, unitless (0.95 = 95 %); ours
     confidence: float = bounded(0.95, gt=0.0, lt=1.0)
     # scenes listed per configuration where the P(success) difference lies, count; ours
-    contribution_scenes: int = bounded(5, ge=1)
+    contribution_scenes: int = bounded(5, ge=1, le=10000)
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from drake_clutter.common.accepts import bounded
+from drake_clutter.common.accepts import SEED_MAX, bounded
 
 
 @dataclass(frozen=True)
@@ -23,7 +23,7 @@ class DynamicsConfig:
     # phi's simulation engine ("drake": Drake's SAP; "mujoco": the paper's engine), choice; ours
     engine: Literal["drake", "mujoco"] = "drake"
     # longest time step of the MuJoCo phi (a knot is split into equal steps), s; MuJoCo's default
-    mujoco_time_step: float = bounded(0.002, gt=0.0)
+    mujoco_time_step: float = bounded(0.002, ge=1e-5)
     # contact time constant of the MuJoCo phi (MJCF solref[0]), s; MuJoCo's default
     mujoco_contact_time: float = bounded(0.02, gt=0.0)
     # contact damping ratio of the MuJoCo phi (MJCF solref[1]), unitless; MuJoCo's default
@@ -39,7 +39,7 @@ class DynamicsConfig:
     # MuJoCo phi's line-search tolerance (MuJoCo's default 0.01), unitless; ours
     mujoco_line_search_tolerance: float = bounded(1e-10, ge=0.0)
     # MuJoCo steps between phi's readings (forces, contacts, jam, speed cap), count; ours
-    mujoco_sample_steps: int = bounded(10, ge=1)
+    mujoco_sample_steps: int = bounded(10, ge=1, le=1000)
     # armature of the MuJoCo phi's arm joints (contacts cannot move it), kg m^2 or kg; ours
     mujoco_arm_armature: float = bounded(1.0e6, gt=0.0)
     # finite-difference step of phi's Jacobians, state units (m, rad, m/s); Sec. V
@@ -49,15 +49,15 @@ class DynamicsConfig:
     # margin around the arm's swept volume within which boxes stay dynamic, m; ours
     prune_margin: float = bounded(0.05, ge=0.0)
     # Jacobians A_t, B_t every k-th knot and the last, interpolated between (1: all), count; ours
-    derivative_stride: int = bounded(3, ge=1)
+    derivative_stride: int = bounded(3, ge=1, le=500)
     # how phi's Jacobians are taken ("fd", "autodiff", "hybrid"), choice; ours
     derivative_method: Literal["fd", "autodiff", "hybrid"] = "hybrid"
     # colour groups at a knot from which "hybrid" takes AutoDiffXd, count; ours
-    autodiff_min_groups: int = bounded(20, ge=1)
+    autodiff_min_groups: int = bounded(20, ge=1, le=100000)
     # parallel derivative workers (0 = serial, in the calling process), count; ours
-    workers: int = bounded(2, ge=0)
+    workers: int = bounded(2, ge=0, le=64)
     # SAP sub-steps of phi per knot (0.2 s knots / 10 = 20 ms), count; ours
-    substeps: int = bounded(10, ge=1)
+    substeps: int = bounded(10, ge=1, le=1000)
     # box contact geometry in phi ("point", "spheres", "hydroelastic", "edges"), choice; ours
     contact_model: Literal["point", "spheres", "hydroelastic", "edges"] = "edges"
     # radius of the spheres inside the box corners ("point", "spheres"), m; ours
@@ -77,13 +77,13 @@ class DynamicsConfig:
     # boxes within this of a kept box are kept too (transitively), m; ours
     prune_contact_range: float = bounded(0.01, ge=0.0)
     # rollouts that check the kept set (frozen boxes reached become dynamic), count; ours
-    prune_rounds: int = bounded(3, ge=0)
+    prune_rounds: int = bounded(3, ge=0, le=20)
     # arm poses per knot interval for the swept volume, count; ours
-    prune_samples_per_knot: int = bounded(4, ge=1)
+    prune_samples_per_knot: int = bounded(4, ge=1, le=100)
     # time the boxes rest under the still arm before planning, s; ours
-    settle_time: float = bounded(3.0, ge=0.0)
+    settle_time: float = bounded(3.0, ge=0.0, le=60.0)
     # traced steps remembered for linearize (2 iLQR horizons of line search), count; ours
-    step_cache_size: int = bounded(512, ge=1)
+    step_cache_size: int = bounded(512, ge=1, le=1000000)
     # multiple of a box's weight beyond which its shelf force counts in c_force, unitless; ours
     shelf_force_allowance: float = bounded(1.5, ge=0.0)
     # cap on a box's translational speed after every SAP sub-step, m/s; ours
@@ -113,9 +113,9 @@ class PhysicsConfig:
     """The physics-based planner (Sec. V, Tables I and II)."""
 
     # cap on the iLQR iterations through phi (0: no phi stages; Sec. V: 30), count; ours
-    iterations: int = bounded(0, ge=0)
+    iterations: int = bounded(0, ge=0, le=100000)
     # first iterations run with the sphere gripper proxy (Sec. V: 10 of the 30), count; ours
-    sphere_iterations: int = bounded(0, ge=0)
+    sphere_iterations: int = bounded(0, ge=0, le=100000)
     # the target in the sphere stage's phi ("passes" or "parked"), choice; ours
     sphere_target: Literal["passes", "parked"] = "parked"
     # weight of c_static, unitless; Table II
@@ -143,7 +143,7 @@ class PhysicsConfig:
     # weight of c_match_vel in the Sec. V-B post-processing, unitless; ours
     w_match_vel: float = bounded(1.0, ge=0.0)
     # knots phi runs past Delta with the arm held (Table II's "all"), count; ours
-    hold_knots: int = bounded(5, ge=0)
+    hold_knots: int = bounded(5, ge=0, le=100)
     # weight of c_speed, the squared excess over the speed cap, unitless; ours
     w_speed: float = bounded(1.0e4, ge=0.0)
     # c_speed's cap, a fraction of the PR2's joint speed limits, unitless; ours
@@ -161,11 +161,11 @@ class PhysicsConfig:
     # stiffness of c_force's penetration-to-force proxy, N/m; ours
     force_stiffness: float = bounded(1.0e3, gt=0.0)
     # configurations per knot interval in c_static_hull / c_dynamic, count; ours
-    hull_substeps: int = bounded(2, ge=1)
+    hull_substeps: int = bounded(2, ge=1, le=100)
     # wall time of an initialization's stages (then the best path so far is the plan), s; ours
-    time_budget: float | None = bounded(600.0, gt=0.0)
+    time_budget: float | None = bounded(600.0, gt=0.0, le=86400.0)
     # iLQR iterations of the Sec. V-A pre-processing, count; ours
-    pre_iterations: int = bounded(10, ge=0)
+    pre_iterations: int = bounded(10, ge=0, le=100000)
     # multiple of w_grasp and w_grp_horiz at the pre-processing's last knot, unitless; ours
     pre_terminal_weight: float = bounded(100.0, ge=0.0)
     # the pre-processing keeps the baseline's last knot and gripper openings (bounds), flag; ours
@@ -185,23 +185,23 @@ class PhysicsConfig:
     # deepest entry into a non-target box's side a straight start counts as none, m; ours
     side_tolerance: float = bounded(0.005, ge=0.0)
     # configurations per knot interval the press check reads, count; ours
-    press_substeps: int = bounded(4, ge=1)
+    press_substeps: int = bounded(4, ge=1, le=100)
     # iLQR iterations of the Sec. V-B post-processing, count; ours
-    post_iterations: int = bounded(40, ge=0)
+    post_iterations: int = bounded(40, ge=0, le=100000)
     # largest arm-point travel between swept-cost samples (0: fixed counts alone), m; ours
     sweep_spacing: float = bounded(0.01, ge=0.0)
     # arm geometry variant of the post-processing's c_static, name; Sec. V-B
     post_variant: Literal["capsules", "sphere_gripper", "evaluation"] = "evaluation"
     # configurations per knot interval in the post-processing's c_static, count; ours
-    post_substeps: int = bounded(6, ge=1)
+    post_substeps: int = bounded(6, ge=1, le=100)
     # relative cost decrease that stops iLQR (the solver's default), unitless; ours
     tolerance: float = bounded(1e-6, ge=0.0)
     # a step's share of a phi stage's decrease that counts as stalled (0 = off), unitless; ours
     stall_fraction: float = bounded(0.05, ge=0.0, lt=1.0)
     # accepted steps in a row under stall_fraction that stop a phi stage, count; ours
-    stall_iterations: int = bounded(2, ge=1)
+    stall_iterations: int = bounded(2, ge=1, le=1000)
     # step sizes tried per backward pass (every stage), count; ours
-    line_search_steps: int = bounded(6, ge=1)
+    line_search_steps: int = bounded(6, ge=1, le=100)
     # phi stages roll out dynamics.workers step sizes at once, flag; ours
     parallel_line_search: bool = True
     # each line search starts at twice the last accepted step, flag; ours
@@ -209,7 +209,7 @@ class PhysicsConfig:
     # phi stages' trust region, a fraction of the per-knot speed-limit step, unitless; ours
     step_limit_fraction: float = bounded(0.5, gt=0.0)
     # failed line searches in one iteration that stop a stage, count; ours
-    max_failed_searches: int = bounded(1, ge=1)
+    max_failed_searches: int = bounded(1, ge=1, le=100)
     # cap on the spectral radius of phi's box-to-box Jacobian per knot, unitless; ours
     max_spectral_radius: float = bounded(1.0, gt=0.0)
     # rows the cap scales ("box": each unstable box's own first; "block": every box's), choice; ours
@@ -217,7 +217,7 @@ class PhysicsConfig:
     # controls of the phi stages: every knot ("knots", Sec. V) or B-spline points, choice; ours
     controls: Literal["knots", "spline"] = "spline"
     # B-spline control points of "spline" controls (the baseline's, Sec. IV), count; ours
-    control_points: int = bounded(10, ge=2)
+    control_points: int = bounded(10, ge=2, le=200)
     # smallest control move that keeps a phi stage going (0 = off), rad (m: opening); ours
     min_step: float = bounded(1e-3, ge=0.0)
     # every stage's backward pass solves each knot's box-constrained QP (Tassa 2014), flag; ours
@@ -242,9 +242,9 @@ class EnsembleConfig:
     """phi's ensemble: a plan scored over K perturbed rollouts (beyond the paper): all ours."""
 
     # members the judge in phi reads a plan in (push_search sets its own), count; ours
-    members: int = bounded(1, ge=1)
+    members: int = bounded(1, ge=1, le=256)
     # seed of the members' worlds (member k draws from [seed, k]), integer; ours
-    seed: int = bounded(1000, ge=0)
+    seed: int = bounded(1000, ge=0, le=SEED_MAX)
     # half-range of each box's initial shift along x and y (uniform), m; ours
     position: float = bounded(0.003, ge=0.0)
     # half-range of each box's initial yaw change (uniform; 3 deg), rad; ours
@@ -256,7 +256,7 @@ class EnsembleConfig:
     # member 1 pairs friction as Bullet does (world.friction_as_bullet), flag; ours
     bullet_friction_member: bool = True
     # knots the judge in phi holds the arm after Delta before reading the boxes, count; ours
-    judge_hold_knots: int = bounded(5, ge=0)
+    judge_hold_knots: int = bounded(5, ge=0, le=100)
     # threads rolling out the paths of one member's MuJoCo phi at once (1: in turn), count; ours
     judge_threads: int = bounded(1, ge=1, le=64)
 
@@ -282,7 +282,7 @@ class PushConfig:
     # chance that a drawn member keeps the gripper closed until a drawn time, unitless; ours
     closed_chance: float = bounded(0.3, ge=0.0, le=1.0)
     # via-points per drawn member, count; ours
-    vias: int = bounded(2, ge=1)
+    vias: int = bounded(2, ge=1, le=10)
     # chance that a member is aimed at a box the straight path meets (else drawn blind); ours
     aimed_chance: float = bounded(1.0, ge=0.0, le=1.0)
     # chance that an aimed move pushes or passes the box toward its own side of the line; ours
@@ -312,17 +312,17 @@ class PushSearchConfig:
     # phi's engine for the search's score, the judge in phi (gate measured in MuJoCo), choice; ours
     engine: Literal["drake", "mujoco"] = "mujoco"
     # ensemble members the search scores every path in (member 0 the scene), count; ours
-    members: int = bounded(4, ge=1)
+    members: int = bounded(4, ge=1, le=256)
     # held-out members (the next ones) a bent path must win on to replace its start, count; ours
-    veto_members: int = bounded(4, ge=1)
+    veto_members: int = bounded(4, ge=1, le=256)
     # family members drawn in the first round, over all starts, count; ours
-    samples: int = bounded(12, ge=0)
+    samples: int = bounded(12, ge=0, le=100000)
     # rounds of the search (the later ones perturb the best bent paths), count; ours
-    rounds: int = bounded(2, ge=1)
+    rounds: int = bounded(2, ge=1, le=1000)
     # best bent paths perturbed in each later round, count; ours
-    elite: int = bounded(2, ge=1)
+    elite: int = bounded(2, ge=1, le=1000)
     # perturbations drawn per elite path in a later round, count; ours
-    perturbations: int = bounded(3, ge=1)
+    perturbations: int = bounded(3, ge=1, le=1000)
     # standard deviation of a perturbation's sideways and vertical via-point offsets, m; ours
     jitter_offset: float = bounded(0.015, ge=0.0)
     # standard deviation of a perturbation's via-point progress and time, fraction; ours
@@ -336,6 +336,6 @@ class PushSearchConfig:
     # P(success) in phi of the best start at which the search does not run, unitless; ours
     stop_at: float = bounded(1.0, ge=0.0, le=1.0)
     # seed of the search's draws (a candidate draws from [seed, angle index]), integer; ours
-    seed: int = bounded(0, ge=0)
+    seed: int = bounded(0, ge=0, le=SEED_MAX)
     # wall time after which a search starts no new round (None: no limit), s; ours
-    time_budget: float | None = bounded(300.0, gt=0.0)
+    time_budget: float | None = bounded(300.0, gt=0.0, le=86400.0)

@@ -20,7 +20,9 @@ cluster every node needs drake_clutter installed (same version) in its Python en
 
 Worker processes run single-threaded BLAS (OMP/OpenBLAS/MKL threads = 1, as Ray does for its
 1-CPU tasks): with one unit per core this avoids oversubscription, and both executors then
-compute bit-identical plans.
+compute bit-identical plans. A local worker ends when its parent dies
+(`processes.exit_with_parent`), and an interrupted run (Ctrl-C, SIGTERM) ends its workers
+before it returns: the units in flight are not stored, and a resumed run plans them.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
 
+from drake_clutter.common.processes import exit_with_parent, stop_workers
 from drake_clutter.experiments.specs import failure_result, run_unit
 
 OnResult = Callable[[dict, dict], None]
@@ -69,12 +72,15 @@ def run_local(units: Iterable[dict], on_result: OnResult, workers: int,
                 in_flight.clear()
                 pool.shutdown(wait=True, cancel_futures=True)
                 pool = _new_pool(workers)
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+    except BaseException:  # Ctrl-C, SIGTERM (`processes.Terminated`): the units in flight
+        stop_workers(pool)  # are abandoned, not waited for; a resumed run plans them
+        raise
+    pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _new_pool(workers: int) -> ProcessPoolExecutor:
-    return ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+    return ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"),
+                               initializer=exit_with_parent)
 
 
 def _fill(pool, work, pending: deque, suspects: deque, in_flight: dict, workers: int) -> bool:

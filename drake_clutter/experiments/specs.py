@@ -35,6 +35,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Literal
 
+from drake_clutter.common.accepts import SEED_MAX, bounded
 from drake_clutter.common.config import Config, config_to_data, load_config
 from drake_clutter.common.typed_yaml import InputError, from_data, read_yaml_file
 from drake_clutter.planners.registry import (
@@ -59,8 +60,8 @@ class GeneratedScenes:
     """Random scenes (`generators.generate_scene`) of one kind: every level x every seed."""
 
     kind: Literal["bookshelf", "fridge"]
-    levels: tuple[int, ...]  # boxes per scene, the target included
-    seeds: tuple[int, ...]
+    levels: tuple[int, ...] = bounded(ge=1, le=40)  # boxes per scene, the target included
+    seeds: tuple[int, ...] = bounded(ge=0, le=SEED_MAX)
 
 
 @dataclass(frozen=True)
@@ -70,7 +71,8 @@ class ExperimentSpec:
     name: str
     planners: tuple[PlannerName, ...] = ("baseline",)
     scene_set: str = ""  # a named set of generators.scene_set ("" = none)
-    scenes_per_level: int = 0  # with scene_set: the first k scenes per (kind, level); 0 = all
+    # with scene_set: the first k scenes per (kind, level); 0 = all
+    scenes_per_level: int = bounded(0, ge=0, le=10000)
     generated: tuple[GeneratedScenes, ...] = ()
     shipped: tuple[str, ...] = ()  # shipped scene names (scenes.shipped_scene_names)
     angles: tuple[int, ...] = ()  # approach-angle indices; () = all baseline.num_angles
@@ -78,8 +80,9 @@ class ExperimentSpec:
     configurations: dict[str, tuple[str, ...]] = field(
         default_factory=lambda: {"default": ()})
     description: str = ""
-    ray_max_retries: int = 2  # ours: Ray re-runs a task whose worker died this many times
-    # (a node lost twice in a row is no longer bad luck); then the unit is a failed row
+    # ours: Ray re-runs a task whose worker died this many times (a node lost twice in a row
+    # is no longer bad luck); then the unit is a failed row
+    ray_max_retries: int = bounded(2, ge=0, le=10)
 
 
 @dataclass(frozen=True)
@@ -150,18 +153,11 @@ def check_spec(spec: ExperimentSpec, file) -> None:
     if spec.scene_set and spec.scene_set not in SCENE_SETS:
         raise SpecError(file, "scene_set", f"unknown scene set {spec.scene_set!r} "
                                            f"(known: {', '.join(SCENE_SETS)})")
-    if spec.ray_max_retries < 0:
-        raise SpecError(file, "ray_max_retries", "must be non-negative")
-    if spec.scenes_per_level < 0:
-        raise SpecError(file, "scenes_per_level", "must be non-negative")
     for i, gen in enumerate(spec.generated):
-        if not gen.levels or min(gen.levels) < 1:
-            raise SpecError(file, f"generated[{i}].levels", "must list levels of at least 1")
+        if not gen.levels:
+            raise SpecError(file, f"generated[{i}].levels", "must list at least one level")
         if not gen.seeds:
             raise SpecError(file, f"generated[{i}].seeds", "must list at least one seed")
-        if min(gen.seeds) < 0:
-            raise SpecError(file, f"generated[{i}].seeds", f"seeds must be non-negative, "
-                                                           f"got {min(gen.seeds)}")
     known = shipped_scene_names()
     for i, name in enumerate(spec.shipped):
         if name not in known:

@@ -10,6 +10,7 @@ from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
+from drake_clutter.common.processes import exit_with_parent
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import group_autodiff, group_differences
 from drake_clutter.phi.dynamics import PhiSpec
@@ -60,7 +61,7 @@ class WorkerPool:
     takes a second or two per worker and happens on first use; reuse one pool across specs.
     A worker that dies mid-task raises `WorkerDied` (a RuntimeError: the physics planner
     records the candidate as failed) instead of waiting forever, and the next call starts
-    fresh workers.
+    fresh workers. A worker ends when its parent process dies (`processes.exit_with_parent`).
     """
 
     def __init__(self, workers: int):
@@ -72,7 +73,8 @@ class WorkerPool:
     def _started(self) -> ProcessPoolExecutor:
         if self._pool is None:
             self._pool = ProcessPoolExecutor(self.workers,
-                                             mp_context=multiprocessing.get_context("spawn"))
+                                             mp_context=multiprocessing.get_context("spawn"),
+                                             initializer=exit_with_parent)
         return self._pool
 
     def run(self, function, items: list) -> list:

@@ -138,8 +138,8 @@ def test_every_config_field_has_one_comment_line_above_it_and_no_history():
 
 def test_the_comment_rule_catches_a_trailing_comment_and_an_issue_number():
     source = _config_source()
-    trailing = source.replace("time_step: float = bounded(0.01, gt=0.0)\n",
-                              "time_step: float = bounded(0.01, gt=0.0)  # s\n", 1)
+    trailing = source.replace("time_step: float = bounded(0.01, ge=1e-5)\n",
+                              "time_step: float = bounded(0.01, ge=1e-5)  # s\n", 1)
     assert trailing != source
     assert any("own line" in p for p in _comment_rule_violations(trailing))
     cited = source.replace("(phi steps knot_time / substeps), s; ours", "(issue #3)", 1)
@@ -153,3 +153,58 @@ def test_push_ranges_must_be_ordered(low, high):
     with pytest.raises(ConfigError, match=f"push.{high}: must be at least push.{low}"):
         load_config(None, [f"push.{low}=0.8", f"push.{high}=0.5"])
     assert getattr(load_config(None, [f"push.{low}=0.5", f"push.{high}=0.5"]).push, high) == 0.5
+
+
+def _integer_fields_without_an_upper_end(cls, seen=None) -> list[str]:
+    """Every integer field (tuples of integers too) under the dataclass ``cls`` whose declared
+    bounds have no upper end."""
+    import dataclasses
+    import typing
+
+    from drake_clutter.common.accepts import field_bounds
+
+    seen = set() if seen is None else seen
+    if cls in seen:
+        return []
+    seen.add(cls)
+    out = []
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        kinds = [a for a in (typing.get_args(hints[f.name]) or (hints[f.name],))
+                 if a is not type(None)]
+        for kind in kinds:
+            if dataclasses.is_dataclass(kind):
+                out += _integer_fields_without_an_upper_end(kind, seen)
+        if int in kinds or hints[f.name] == tuple[int, ...]:
+            bounds = field_bounds(f)
+            if bounds is None or (bounds.le is None and bounds.lt is None):
+                out.append(f"{cls.__name__}.{f.name}")
+    return out
+
+
+def test_every_count_has_an_upper_end():
+    """A count typed by mistake (push_search.members=1000000) is refused at load."""
+    from drake_clutter.common.config import Config
+
+    assert _integer_fields_without_an_upper_end(Config) == []
+    with pytest.raises(ConfigError, match=r"push_search.members: must be in \[1, 256\]"):
+        load_config(None, ["push_search.members=1000000"])
+    with pytest.raises(ConfigError, match="physics.time_budget: must be in"):
+        load_config(None, ["physics.time_budget=1e9"])
+    with pytest.raises(ConfigError, match="baseline.num_knots"):
+        load_config(None, ["baseline.num_knots=100000"])
+
+
+def test_the_upper_end_rule_sees_a_count_without_one():
+    import dataclasses
+
+    from drake_clutter.common.accepts import bounded
+
+    @dataclasses.dataclass(frozen=True)
+    class Counts:
+        capped: int = bounded(1, ge=1, le=10)
+        open_ended: int = bounded(1, ge=1)
+        levels: tuple[int, ...] = bounded((1,), ge=1)
+
+    assert _integer_fields_without_an_upper_end(Counts) == ["Counts.open_ended",
+                                                            "Counts.levels"]

@@ -15,6 +15,7 @@ import pytest
 from drake_clutter.cli import main
 from drake_clutter.experiments.specs import failure_result
 from drake_clutter.experiments.store import Store, StoreError
+from drake_clutter.testing.processes import alive, children
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -104,24 +105,44 @@ def _rows(db: Path) -> list[tuple]:
                            "FROM results ORDER BY scene, angle").fetchall()
 
 
-def test_resume_after_sigkill_loses_and_duplicates_nothing(tmp_path):
+# How a run is stopped: the signal, sent to the runner alone or to its whole process group (a
+# terminal's Ctrl-C, the machine killing the job), and the exit status the runner then has.
+STOPS = {"sigkill of the job": (signal.SIGKILL, True, -signal.SIGKILL),
+         "sigkill of the runner alone": (signal.SIGKILL, False, -signal.SIGKILL),
+         "sigterm of the runner": (signal.SIGTERM, False, 143),
+         "ctrl-c in a terminal": (signal.SIGINT, True, 130)}
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("stop", list(STOPS))
+def test_a_stopped_run_ends_its_workers_and_resumes_losing_and_doubling_nothing(tmp_path,
+                                                                                 stop):
+    signum, group, status = STOPS[stop]
     spec, db = tmp_path / "spec.yaml", tmp_path / "run.db"
     spec.write_text(SPEC, encoding="utf-8")
     command = [sys.executable, "-m", "drake_clutter.cli", "experiment", "run", str(spec),
-               "--db", str(db), "--workers", "1", "--no-progress"]
-    # Its own session, so that SIGKILL reaches the runner and its worker together, as when
-    # the machine kills the job.
+               "--db", str(db), "--workers", "2", "--no-progress"]
+    # Its own session, so that a signal to the group reaches the runner and its workers
+    # together and none reaches pytest.
     proc = subprocess.Popen(command, cwd=REPO, start_new_session=True,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 120
         while _count(db) < 1 and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
-        assert proc.poll() is None, "the run ended before it could be killed"
-        assert _count(db) >= 1
+        assert proc.poll() is None, "the run ended before it could be stopped"
+        workers = children(proc.pid)
+        assert _count(db) >= 1 and len(workers) >= 2
+        (os.killpg if group else os.kill)(proc.pid, signum)
+        assert proc.wait(timeout=30) == status
     finally:
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    deadline = time.monotonic() + 15
+    while any(alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(alive(w) for w in workers), "a worker outlived its runner"
     before = _rows(db)
     assert 1 <= len(before) < 6
     done = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=300)

@@ -48,7 +48,8 @@ def test_rows_of_two_stores_are_compared_on_their_shared_initializations(tmp_pat
     assert "| defaults/push | 100.0 % | 100.0 % | 1.000 | +0.500 [" in out
     assert "| 1 / 1 / 0 |" in out
     assert "| stages/physics | 0.0 % | 0.0 % | 0.000 | -0.500 [" in out
-    assert "| stages/baseline | 100.0 % | 100.0 % | 0.500 | +0.000 [+0.000, +0.000] | 0 / 2 / 0 |" in out
+    assert ("| stages/baseline | 100.0 % | 100.0 % | 0.500 | +0.000 [+0.000, +0.000] "
+            "| 0 / 2 / 0 |") in out
 
 
 def test_the_same_row_name_in_two_stores_is_refused(tmp_path):

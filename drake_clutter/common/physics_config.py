@@ -337,5 +337,5 @@ class PushSearchConfig:
     stop_at: float = bounded(1.0, ge=0.0, le=1.0)
     # seed of the search's draws (a candidate draws from [seed, angle index]), integer; ours
     seed: int = bounded(0, ge=0, le=SEED_MAX)
-    # wall time after which a search starts no new round (None: no limit), s; ours
+    # wall time of the push planner on one initialization, starts to veto (None: no limit), s; ours
     time_budget: float | None = bounded(300.0, gt=0.0, le=86400.0)

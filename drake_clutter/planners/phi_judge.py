@@ -42,6 +42,7 @@ from drake_clutter.phi.dynamics import initial_state, make_spec
 from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import prune
 from drake_clutter.phi.state import ARM_DIM, scene_box_states
+from drake_clutter.planners.budget import past
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import ArmGeometry, path_depths
 from drake_clutter.planners.members import member_world
@@ -331,23 +332,31 @@ class JudgedRollout:
     """One path rolled out in one member's phi for the judge: every kept box's 13-number state
     at the end of the hold (quaternion wxyz, position in W (m), velocities; None where phi
     failed or the rollout stopped), the largest knot's jam measure so far (m, `phi.jam`; None
-    where phi failed), whether it stopped at ``stop`` and the frozen boxes it reached."""
+    where phi failed), whether it stopped at ``stop``, the frozen boxes it reached, and whether
+    the deadline cut it (``unfinished``: it reads nothing)."""
 
     final_boxes: dict[str, np.ndarray] | None
     jam: float | None
     stopped: bool = False
     touched: frozenset = frozenset()
+    unfinished: bool = False
+
+
+UNFINISHED = JudgedRollout(None, None, unfinished=True)
 
 
 def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
-                    knot_time: float, stop: float | None = None) -> dict[str, JudgedRollout]:
+                    knot_time: float, stop: float | None = None,
+                    deadline: float | None = None) -> dict[str, JudgedRollout]:
     """Each knot path (T + 1, 8) rolled out in one phi of ``world`` (a member's scene, capsule
     arm, ``config``'s engine) and held at its last knot for ``ensemble.judge_hold_knots``
     knots, its jam measured at every knot; one phi for all paths, pruned to them
     (`pruning.prune`), its boxes settled once under the first path's start. A path whose
     rollout reaches a frozen box is rolled out again in a phi with those boxes kept, up to
     ``dynamics.prune_rounds`` times. ``stop`` (m): a rollout ends once its jam reaches it.
-    A path phi cannot settle or step reads failed (final_boxes None, jam None)."""
+    A path phi cannot settle or step reads failed (final_boxes None, jam None). Once the
+    `time.monotonic` ``deadline`` has passed, no phi is built and no knot stepped: the paths
+    not yet rolled out read `UNFINISHED`."""
     dyn = config.dynamics
     states = scene_box_states(world)
     first, *others = (np.asarray(q, float) for q in paths.values())
@@ -355,6 +364,8 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
     out: dict[str, JudgedRollout] = {}
     todo = dict(paths)
     for round_ in range(dyn.prune_rounds + 1):
+        if past(deadline):
+            return {**out, **dict.fromkeys(todo, UNFINISHED)}
         spec = make_spec(world, [b.name for b in world.boxes if b.name in kept], states,
                          knot_time, dyn, config.world, "capsules")
         phi = build_phi(spec)
@@ -362,7 +373,7 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
             x0 = phi.settle(initial_state(spec.layout, first[0], states))
         except (RuntimeError, ValueError):  # Drake's solver errors while settling
             return {**out, **dict.fromkeys(todo, JudgedRollout(None, None))}
-        out.update(_rollouts(phi, x0, todo, config.ensemble, stop))
+        out.update(_rollouts(phi, x0, todo, config.ensemble, stop, deadline))
         touched = set().union(*(out[name].touched for name in todo))
         if not touched or round_ == dyn.prune_rounds:
             break
@@ -372,13 +383,13 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
 
 
 def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], ensemble: EnsembleConfig,
-              stop: float | None) -> dict[str, JudgedRollout]:
+              stop: float | None, deadline: float | None = None) -> dict[str, JudgedRollout]:
     """`_judged_rollout` of every path, in ``ensemble.judge_threads`` threads where phi can be
     cloned (MuJoCo), each thread stepping its own clone: the same rollouts as in turn."""
     hold = ensemble.judge_hold_knots
     threads = min(ensemble.judge_threads, len(paths))
     if threads <= 1 or not hasattr(phi, "clone"):
-        return {name: _judged_rollout(phi, x0, np.asarray(q, float), hold, stop)
+        return {name: _judged_rollout(phi, x0, np.asarray(q, float), hold, stop, deadline)
                 for name, q in paths.items()}
     idle = queue.SimpleQueue()
     for twin in [phi, *(phi.clone() for _ in range(threads - 1))]:
@@ -387,7 +398,7 @@ def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], ensemble: Ensem
     def roll(q: np.ndarray) -> JudgedRollout:
         twin = idle.get()
         try:
-            return _judged_rollout(twin, x0, np.asarray(q, float), hold, stop)
+            return _judged_rollout(twin, x0, np.asarray(q, float), hold, stop, deadline)
         finally:
             idle.put(twin)
 
@@ -396,14 +407,17 @@ def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], ensemble: Ensem
 
 
 def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
-                    stop: float | None) -> JudgedRollout:
-    """One path from x0 (its arm set to q[0]) through its knots and the hold."""
+                    stop: float | None, deadline: float | None = None) -> JudgedRollout:
+    """One path from x0 (its arm set to q[0]) through its knots and the hold; `UNFINISHED`
+    once the `time.monotonic` ``deadline`` has passed before a knot."""
     layout = phi.layout
     x = x0.copy()
     x[:ARM_DIM] = q[0]
     worst, touched = 0.0, set()
     trace = bool(phi.spec.frozen)  # the edges only say which frozen boxes were reached
     for u in [*q[1:], *([q[-1]] * hold_knots)]:
+        if past(deadline):
+            return UNFINISHED
         try:
             if trace:
                 x, edges, jam = phi.step_traced_jam(x, u)
@@ -423,7 +437,7 @@ def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
 
 def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, config: Config,
                 geometry: ArmGeometry, pool=None, members: Sequence[int] | None = None,
-                complete: bool = True) -> dict[str, PhiVerdict]:
+                complete: bool = True, deadline: float | None = None) -> dict[str, PhiVerdict]:
     """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's ensemble members
     ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet the same
     members, each member's phi pruned for all of them and rolled out from each path's own start
@@ -432,18 +446,20 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
     (its findings then say ``stopped`` and hold no box fates), and the press is not measured.
     ``pool`` (a `phi.workers.WorkerPool`): the members are rolled out in its workers, one
     member a task (the same verdicts; each worker builds its own arm). ``geometry``: the
-    capsule arm with the boxes at rest (`PlanningContext.arm`)."""
+    capsule arm with the boxes at rest (`PlanningContext.arm`). ``deadline`` (a
+    `time.monotonic` value): no knot is stepped after it, and a path not rolled out in every
+    member by then has no verdict (it is left out of the answer)."""
     checks = {name: plan_checks(scene, geometry, q, times, config, press=complete)
               for name, q in paths.items()}
     order = list(range(config.ensemble.members) if members is None else members)
-    jobs = [(scene, paths, np.asarray(times, float), config, checks, m, complete)
+    jobs = [(scene, paths, np.asarray(times, float), config, checks, m, complete, deadline)
             for m in order]
     if pool is None:
         per_member = [_member_found(job, geometry) for job in jobs]
     else:
         per_member = pool.run(_member_task, jobs)
     return {name: PhiVerdict.from_findings([found[name] for found in per_member], config)
-            for name in paths}
+            for name in paths if all(name in found for found in per_member)}
 
 
 def _member_task(job) -> dict[str, PhiFindings]:
@@ -453,19 +469,21 @@ def _member_task(job) -> dict[str, PhiFindings]:
 
 
 def _member_found(job, geometry: ArmGeometry) -> dict[str, PhiFindings]:
-    """One member's findings of every path, ``geometry`` the capsule arm with the boxes at
-    rest."""
-    scene, paths, times, config, checks, member, complete = job
+    """One member's findings of every path it finished, ``geometry`` the capsule arm with
+    the boxes at rest."""
+    scene, paths, times, config, checks, member, complete, deadline = job
     decided = set() if complete else {name for name, (limit, _) in checks.items() if limit}
     stop = None if complete else config.dynamics.jam_depth
     world, cfg = member_world(scene, config, member)
     rolled = judged_rollouts(world, {n: q for n, q in paths.items() if n not in decided}, cfg,
-                             float(np.diff(times[:2])[0]), stop)
+                             float(np.diff(times[:2])[0]), stop, deadline)
     out = {name: PhiFindings(*checks[name], jam=None, stopped=True) for name in decided}
     for name, r in rolled.items():
+        if r.unfinished:
+            continue
         if r.stopped:
             out[name] = PhiFindings(*checks[name], jam=r.jam, stopped=True)
         else:
             out[name] = member_findings(scene, geometry, paths[name], r, *checks[name],
                                         config.evaluation)
-    return {name: out[name] for name in paths}
+    return {name: out[name] for name in paths if name in out}

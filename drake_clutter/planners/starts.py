@@ -10,10 +10,13 @@ same IK seeds (`baseline.plan_angle`), named in records by `start_key`.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from drake_clutter.planners import baseline
 from drake_clutter.planners.approach import approach_angles
+from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.trajectory import Candidate
 
@@ -24,13 +27,14 @@ def start_key(fraction: float, offset: float) -> str:
     return f"{fraction:g}" if offset == 0.0 else f"{fraction:g} yaw {offset:+g}"
 
 
-def height_candidates(context: PlanningContext, candidate: Candidate
-                      ) -> dict[tuple[float, float], Candidate]:
+def height_candidates(context: PlanningContext, candidate: Candidate,
+                      deadline: Deadline | None = None) -> dict[tuple[float, float], Candidate]:
     """The start ``candidate`` (the baseline's, at ``baseline.grasp_height_fraction``) and the
     baseline planned at each fraction of ``physics.grasp_heights`` at the same angle, then at
     the angle turned by each yaw offset of ``physics.approach_offsets`` (rad) at every
     fraction, by (fraction, offset) in that order (the start's first); only candidates with a
-    trajectory ("ok"). The solvers per fraction are the context's (`baseline_at`)."""
+    trajectory ("ok"). The solvers per fraction are the context's (`baseline_at`). Once
+    ``deadline`` has passed no further start is planned (each plan is an indivisible step)."""
     config = context.config
     alphas = approach_angles(config.baseline)
     index = int(np.argmin(np.abs(alphas - candidate.alpha)))
@@ -43,9 +47,14 @@ def height_candidates(context: PlanningContext, candidate: Candidate
             if (fraction, offset) == (base, 0.0):
                 out[(base, 0.0)] = candidate
                 continue
+            if deadline is not None and deadline.spend("heights"):
+                return out
+            tic = time.monotonic()
             if fraction not in contexts:
                 contexts[fraction] = context.baseline_at(fraction)
             found = baseline.plan_angle(contexts[fraction], candidate.alpha + offset, index)
+            if deadline is not None:
+                deadline.timed(time.monotonic() - tic)
             if found.ok:
                 out[(fraction, offset)] = found
     return out

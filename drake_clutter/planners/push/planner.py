@@ -11,10 +11,16 @@ search whose pick reads neither success nor partial success in any member of phi
 baseline's own path instead (``details["chosen"]`` "baseline", the search's pick kept in
 ``details["search"]["chosen"]``): among paths that all fail in phi, its reading of which failure
 is least bad is weakest on falls.
+
+``push_search.time_budget`` (s) bounds the whole initialization: the starts stop being planned,
+draws built and knots stepped once it has passed (`budget.Deadline`), and the best path judged
+so far is returned; with none judged, the baseline's own path ("baseline"). What it cut is in
+``details["budget"]``.
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -22,6 +28,7 @@ import numpy as np
 from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import approach_angles
+from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import clear_paths
 from drake_clutter.planners.push.search import run_search
@@ -60,25 +67,28 @@ def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
     """The push planner on one baseline candidate (angle ``index`` of the baseline's) in the
     scene's planning ``context``; ``pool``: `run_search`'s."""
     scene, config, geometry = context.scene, context.config, context.arm()
+    deadline = Deadline(config.push_search.time_budget)
     tic = time.perf_counter()
-    found = height_candidates(context, candidate)
+    found = height_candidates(context, candidate, deadline)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
     timings = {"heights": time.perf_counter() - tic}
     clear = clear_paths(geometry, starts, config, scene.target) if (
         config.push_search.clear_first) else []
     if clear:
-        details = {"initialization": candidate.planner, "clear": clear, "chosen": clear[0]}
+        details = {"initialization": candidate.planner, "clear": clear, "chosen": clear[0],
+                   "budget": deadline.record()}
         trajectory = Trajectory(candidate.trajectory.times.copy(), starts[clear[0]])
         return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
                          timings=timings, details=details)
     tic = time.perf_counter()
     result = run_search(scene, starts, candidate.trajectory.times, config, geometry,
-                        context.clearance, index, pool)
+                        context.clearance, index, pool, deadline)
     timings["search"] = time.perf_counter() - tic
     details = {"initialization": candidate.planner, "search": result.record,
-               "chosen": result.name}
+               "chosen": result.name, "budget": deadline.record()}
     trajectory = Trajectory(candidate.trajectory.times.copy(), result.q)
-    if config.push_search.fallback and not reads_a_grasp(result.record["verdicts"][result.name]):
+    verdict = result.record["verdicts"].get(result.name)
+    if verdict is None or (config.push_search.fallback and not reads_a_grasp(verdict)):
         details["chosen"] = FALLBACK
         trajectory = Trajectory(candidate.trajectory.times.copy(),
                                 candidate.trajectory.q.copy())
@@ -107,9 +117,10 @@ def push_table(candidates: list[Candidate]) -> str:
             continue
         verdicts = search["verdicts"]
         counts = search["counts"]
+        chosen, start = (verdicts.get(search[k]) or {"p_success": math.nan}
+                         for k in ("chosen", "best_start"))
         rows.append(f"{c.alpha:7.3f} {c.details['chosen']:>22} "
-                    f"{verdicts[search['chosen']]['p_success']:6.2f} "
-                    f"{verdicts[search['best_start']]['p_success']:6.2f} "
+                    f"{chosen['p_success']:6.2f} {start['p_success']:6.2f} "
                     f"{counts['feasible']:>4}/{counts['drawn']:<4} "
                     f"{sum(c.timings.values()):6.1f}")
     return "\n".join(rows)

@@ -22,9 +22,12 @@ yaws, knots at the same times, the first the baseline's own), in rounds (``push_
    `PhiVerdict.class_key`, the margin left out) is strictly better than the best start's
    there. Otherwise the best start is returned; that is also the answer when every start
    reads P(success) >= ``stop_at`` already (no member drawn) or no member is feasible.
-5. **The time budget**: no round starts once the search has run ``time_budget`` seconds
-   (``record["stopped"]`` says after how many); the pick and the veto are made on what was
-   judged.
+5. **The time budget** (the push planner's `budget.Deadline`, ``push_search.time_budget``
+   for the whole initialization): no round starts and no knot is stepped once it has passed
+   (``record["stopped"]`` says when); a path not rolled out in every member by then has no
+   verdict and is left out (``counts["unjudged"]``). The pick is made on what was judged; a
+   veto the budget cuts keeps the best start; when no start was judged the first (the
+   baseline's own) is returned.
 
 The search never fails the plan: a member that cannot be built is dropped and counted, and a
 rollout phi cannot finish reads as a kinematic failure (`judge_paths`). Every draw is seeded
@@ -39,6 +42,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from drake_clutter.common.config import Config, PushSearchConfig
+from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.phi_judge import PhiVerdict, judge_paths
@@ -91,9 +95,11 @@ class Search:
     judge them in, and every path judged so far."""
 
     def __init__(self, scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray,
-                 config: Config, geometry: ArmGeometry, clearance: ShelfClearance, pool=None):
+                 config: Config, geometry: ArmGeometry, clearance: ShelfClearance, pool=None,
+                 deadline: Deadline | None = None):
         self.scene, self.times, self.config = scene, np.asarray(times, float), config
         self.pool = pool
+        self.deadline = deadline or Deadline(None)
         self.geometry, self.clearance = geometry, clearance
         search = config.push_search
         self.judge_config = replace(
@@ -102,12 +108,14 @@ class Search:
         self.samples = {name: Sample(name, None, np.asarray(q, float))
                         for name, q in starts.items()}
         self.verdicts: dict[str, PhiVerdict] = {}
-        self.counts = {"drawn": 0, "feasible": 0}
+        self.counts = {"drawn": 0, "feasible": 0, "unjudged": 0}
         self._frames = {}
 
     def add(self, name: str, start: str, member: PushPath) -> bool:
         """Builds ``member`` about the start path ``start`` and keeps it as ``name`` if
-        feasible."""
+        feasible; nothing is built once the deadline has passed."""
+        if self.deadline.spend("draws"):
+            return False
         self.counts["drawn"] += 1
         try:
             q, error = member_path(self.geometry, self.samples[start].q, member)
@@ -120,12 +128,15 @@ class Search:
         return True
 
     def judge(self, names: list[str], members=None) -> dict[str, PhiVerdict]:
-        """The verdicts of the named paths in the search's members (or ``members``)."""
+        """The verdicts of the named paths in the search's members (or ``members``); a path
+        the deadline cut has none (counted as unjudged)."""
         if not names:
             return {}
-        return judge_paths(self.scene, {n: self.samples[n].q for n in names}, self.times,
-                           self.judge_config, self.geometry, self.pool, members,
-                           complete=False)
+        found = judge_paths(self.scene, {n: self.samples[n].q for n in names}, self.times,
+                            self.judge_config, self.geometry, self.pool, members,
+                            complete=False, deadline=self.deadline.at)
+        self.counts["unjudged"] += len(names) - len(found)
+        return found
 
     def frame(self, start: str):
         """The approach frame and the met boxes of a start path (computed once)."""
@@ -151,21 +162,26 @@ class Search:
 
 
 def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, config: Config,
-               geometry: ArmGeometry, clearance: ShelfClearance, index: int = 0, pool=None
-               ) -> SearchResult:
+               geometry: ArmGeometry, clearance: ShelfClearance, index: int = 0, pool=None,
+               deadline: Deadline | None = None) -> SearchResult:
     """The search of one approach angle (``index``, seeds the draws) from the straight
     ``starts`` (name: knots (T + 1, 8), the first the baseline's; knots at ``times`` s);
     see the module docstring. ``pool``: a `phi.workers.WorkerPool` the members are rolled
-    out in (the same result)."""
+    out in (the same result); ``deadline``: the initialization's budget (None: none)."""
     tic = time.perf_counter()
     cfg = config.push_search
-    s = Search(scene, starts, times, config, geometry, clearance, pool)
+    s = Search(scene, starts, times, config, geometry, clearance, pool, deadline)
     s.verdicts.update(s.judge(list(starts)))
-    best_start = s.best(list(starts))
+    judged = [n for n in starts if n in s.verdicts]
+    if not judged:
+        return _unjudged(s, list(starts), tic)
+    best_start = s.best(judged)
     record = {"starts": list(starts), "best_start": best_start, "rounds": []}
-    if s.verdicts[best_start].p_success < cfg.stop_at:
+    if len(judged) < len(starts):
+        record["stopped"] = "time_budget while judging the starts"
+    elif s.verdicts[best_start].p_success < cfg.stop_at:
         for round_ in range(cfg.rounds):
-            if cfg.time_budget is not None and time.perf_counter() - tic > cfg.time_budget:
+            if s.deadline.spend(f"search round {round_ + 1}"):
                 record["stopped"] = f"time_budget after {round_} rounds"
                 break
             rng = np.random.default_rng([cfg.seed, index, round_])
@@ -179,6 +195,14 @@ def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, c
                   seconds=time.perf_counter() - tic,
                   verdicts={n: _summary(v, s.samples[n]) for n, v in s.verdicts.items()})
     return SearchResult(chosen, s.samples[chosen].q, record)
+
+
+def _unjudged(s: Search, starts: list[str], tic: float) -> SearchResult:
+    """The first start (the baseline's own path), unjudged: the budget ran out first."""
+    record = {"starts": starts, "best_start": None, "rounds": [], "counts": s.counts,
+              "stopped": "time_budget before a start was judged", "pick": None, "veto": None,
+              "chosen": starts[0], "seconds": time.perf_counter() - tic, "verdicts": {}}
+    return SearchResult(starts[0], s.samples[starts[0]].q, record)
 
 
 def _draw_round(s: Search, rng: np.random.Generator, starts: list[str]) -> list[str]:
@@ -210,13 +234,17 @@ def _perturb_round(s: Search, rng: np.random.Generator, round_: int) -> list[str
 
 def _veto(s: Search, pick: str, best_start: str) -> tuple[str, dict | None]:
     """The path returned: ``pick`` if it is a start, or if its classes' reading also beats
-    ``best_start``'s on the held-out members; else ``best_start``. The veto's verdicts (None:
-    no veto run)."""
+    ``best_start``'s on the held-out members; else ``best_start`` (also when the budget cuts
+    the veto). The veto's verdicts (None: no veto run)."""
     if s.samples[pick].member is None:
         return pick, None
     cfg = s.config.push_search
     held_out = range(cfg.members, cfg.members + cfg.veto_members)
+    if s.deadline.spend("veto"):
+        return best_start, {"members": list(held_out), "wins": False, "cut": True}
     verdicts = s.judge([pick, best_start], members=held_out)
+    if len(verdicts) < 2:  # the budget ran out during the veto: the start is kept
+        return best_start, {"members": list(held_out), "wins": False, "cut": True}
     wins = verdicts[pick].class_key() < verdicts[best_start].class_key()
     return (pick if wins else best_start), {
         "members": list(held_out), "wins": wins,

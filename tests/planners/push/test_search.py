@@ -12,6 +12,7 @@ import pytest
 from drake_clutter.common.config import Config, load_config
 from drake_clutter.planners.approach import static_planning_world
 from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import ArmGeometry
@@ -61,7 +62,7 @@ def test_the_veto_keeps_the_start_unless_the_pick_wins_on_unseen_members(setting
 
     def scripted(wins_held_out):
         def judge(scene, paths, times, config, pool=None, geometry=None, members=None,
-                  complete=True):
+                  complete=True, deadline=None):
             seen_members.append(None if members is None else list(members))
             held_out = members is not None
             out = {}
@@ -103,16 +104,69 @@ def test_a_start_that_reads_success_stops_the_search(setting, monkeypatch):
 def test_a_search_past_its_time_budget_starts_no_round(setting, monkeypatch):
     scene, trajectory, geometry, clearance = setting
     monkeypatch.setattr(search_module, "judge_paths", lambda scene, paths, *a, **k: {
-        n: _verdict("failure_to_grasp") for n in paths})
-    spent = load_config(None, [*SMALL, "push_search.time_budget=1.0e-9"])
-    result = run_search(scene, {"a": trajectory.q}, trajectory.times, spent, geometry,
-                        clearance)
+        n: _verdict("failure_to_grasp") for n in paths})  # a judge that ignores the deadline
+    config = load_config(None, SMALL)
+    spent = Deadline(1.0e-9)
+    result = run_search(scene, {"a": trajectory.q}, trajectory.times, config, geometry,
+                        clearance, deadline=spent)
     assert result.name == "a" and result.record["rounds"] == []
     assert result.record["stopped"] == "time_budget after 0 rounds"
-    ample = load_config(None, [*SMALL, "push_search.time_budget=1000000.0"])
-    result = run_search(scene, {"a": trajectory.q}, trajectory.times, ample, geometry,
-                        clearance)
+    assert spent.record()["cut"] == ["search round 1"] and spent.record()["spent"]
+    ample = Deadline(1.0e6)
+    result = run_search(scene, {"a": trajectory.q}, trajectory.times, config, geometry,
+                        clearance, deadline=ample)
     assert len(result.record["rounds"]) == 2 and "stopped" not in result.record
+    assert ample.record()["cut"] == [] and not ample.record()["spent"]
+
+
+def test_paths_the_deadline_cut_are_left_out_and_with_no_start_the_first_returns(
+        setting, monkeypatch):
+    scene, trajectory, geometry, clearance = setting
+    config = load_config(None, SMALL)
+    starts = {"a": trajectory.q, "b": trajectory.q.copy()}
+    monkeypatch.setattr(search_module, "judge_paths", lambda scene, paths, *a, **k: {
+        n: _verdict("failure_to_grasp") for n in paths if n != "a"})  # "a" was cut
+    result = run_search(scene, starts, trajectory.times, config, geometry, clearance)
+    assert result.record["best_start"] == "b" and "a" not in result.record["verdicts"]
+    assert result.record["stopped"] == "time_budget while judging the starts"
+    assert result.record["counts"]["unjudged"] == 1 and result.record["rounds"] == []
+    monkeypatch.setattr(search_module, "judge_paths", lambda *a, **k: {})  # all cut
+    result = run_search(scene, starts, trajectory.times, config, geometry, clearance)
+    assert result.name == "a" and result.record["best_start"] is None
+    assert result.record["verdicts"] == {} and result.record["counts"]["unjudged"] == 2
+    np.testing.assert_array_equal(result.q, trajectory.q)
+
+
+def test_the_real_judge_steps_nothing_after_its_deadline(setting):
+    import time
+
+    from drake_clutter.planners.phi_judge import judge_paths
+
+    scene, trajectory, geometry, _ = setting
+    config = load_config(None, ["ensemble.members=2", "dynamics.engine=mujoco"])
+    paths = {"a": trajectory.q}
+    tic = time.monotonic()
+    assert judge_paths(scene, paths, trajectory.times, config, geometry,
+                       deadline=time.monotonic()) == {}
+    assert time.monotonic() - tic < 1.0  # no phi built, no knot stepped
+    judged = judge_paths(scene, paths, trajectory.times, config, geometry,
+                         deadline=time.monotonic() + 1.0e6)
+    assert len(judged["a"].readings) == 2
+
+
+def test_a_push_plan_past_its_budget_returns_the_baseline_path_and_says_so():
+    planner = get_planner("push")
+    scene = scenes.load_shipped_scene("fig6_push_sideways")
+    config = load_config(None, [*SMALL, "push_search.time_budget=1.0e-6",
+                                "push_search.clear_first=false"])
+    (baseline,) = get_planner("baseline").plan(scene, config, angles=[3])
+    (candidate,) = planner.plan(scene, config, angles=[3], start=[baseline])
+    budget = candidate.details["budget"]
+    assert budget["spent"] and budget["cut"][0] == "heights" and budget["budget"] == 1.0e-6
+    assert candidate.details["chosen"] == "baseline" and candidate.ok
+    assert candidate.details["search"]["stopped"] == "time_budget before a start was judged"
+    np.testing.assert_array_equal(candidate.trajectory.q, baseline.trajectory.q)
+    assert "P phi" in planner.table([candidate])
 
 
 def test_a_real_search_returns_a_judged_path_and_is_seeded(setting):

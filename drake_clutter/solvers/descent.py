@@ -15,9 +15,9 @@ from drake_clutter.solvers.problem import ILQRSettings, StopReason
 
 
 def past(deadline: float | None, ahead: float = 0.0) -> bool:
-    """True when ``deadline`` (a time.perf_counter() value, s) is set and will have passed
+    """True when ``deadline`` (a time.monotonic() value, s) is set and will have passed
     ``ahead`` seconds from now."""
-    return deadline is not None and time.perf_counter() + ahead >= deadline
+    return deadline is not None and time.monotonic() + ahead >= deadline
 
 
 class DescentProblem(Protocol):

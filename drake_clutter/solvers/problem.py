@@ -99,7 +99,7 @@ class ILQRSettings:
     # in a row each lowered the objective by less than this fraction of the decrease since
     # the start (the tail of a converging run buys little); 0: no such rule
     stall_iterations: int = 2
-    deadline: float | None = None  # a time.perf_counter() value (s): no iteration starts that
+    deadline: float | None = None  # a time.monotonic() value (s): no iteration starts that
 
 
 class StopReason(StrEnum):

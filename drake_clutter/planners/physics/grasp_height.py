@@ -9,17 +9,19 @@ top deeper than ``physics.press_tolerance`` nor enters a non-target box's side d
 
 from __future__ import annotations
 
+from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import box_depths, contact_flags
 from drake_clutter.planners.starts import height_candidates, start_key
 from drake_clutter.trajectory import Candidate
 
 
-def choose_height(context: PlanningContext, candidate: Candidate) -> tuple[Candidate, dict]:
-    """The start among `height_candidates` of ``candidate`` (the baseline's) chosen by the
-    module's rule, and what was measured: per `start_key`, its height h (m), yaw offset (rad),
-    press and side depths (m); the chosen key."""
-    found = height_candidates(context, candidate)
+def choose_height(context: PlanningContext, candidate: Candidate,
+                  deadline: Deadline | None = None) -> tuple[Candidate, dict]:
+    """The start among `height_candidates` of ``candidate`` (the baseline's; those planned
+    before ``deadline``) chosen by the module's rule, and what was measured: per `start_key`,
+    its height h (m), yaw offset (rad), press and side depths (m); the chosen key."""
+    found = height_candidates(context, candidate, deadline)
     paths = {k: c.trajectory.q for k, c in found.items()}
     depths = box_depths(context.arm(), paths, context.config, context.scene.target)
     scores = contact_flags(depths, context.config)

@@ -70,7 +70,7 @@ def solver_settings(config: Config, iterations: int, knot_time: float | None = N
     floor 0 (every Table I term is non-negative; fig6's first model predicted a decrease of
     6.8e5 from an objective of 2.7e3 and every rollout failed, measured). ``bounds``: per-knot
     (lo, hi) of `knot_bounds` (default: `control_bounds` at every knot). ``deadline``: a
-    time.perf_counter() value (s) past which the solver stops with its best path so far."""
+    time.monotonic() value (s) past which the solver stops with its best path so far."""
     lo, hi = control_bounds() if bounds is None else bounds
     cfg = config.physics
     settings = ilqr.ILQRSettings(max_iterations=iterations, tolerance=cfg.tolerance,

@@ -43,6 +43,7 @@ from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import grasp_offset
 from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import pregrasp_aim
 from drake_clutter.planners.physics.grasp_height import choose_height
@@ -71,14 +72,15 @@ class Budget:
     counted from its creation, and the stages it cut short or left out."""
 
     seconds: float | None
-    start: float = field(default_factory=time.perf_counter)
+    start: float = field(default_factory=time.monotonic)
     stopped: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     forecast: float = 0.0  # s a phi world's set-up and one iteration took (`learn`)
+    longest_step: float = 0.0  # s the longest start planned for the height choice took
 
     @property
     def deadline(self) -> float | None:
-        """The time.perf_counter() value (s) at which the budget is spent; None: never."""
+        """The time.monotonic() value (s) at which the budget is spent; None: never."""
         return None if self.seconds is None else self.start + self.seconds
 
     def skip(self, stage: str, phi: bool = False) -> bool:
@@ -107,9 +109,10 @@ class Budget:
         """What the candidate's details keep: the budget (s), the time taken ("wall_time",
         s: an experiment store moves it to the unit's timings), whether it was spent, the
         stages cut short and left out, and the path returned."""
-        return {"budget": self.seconds, "wall_time": time.perf_counter() - self.start,
+        return {"budget": self.seconds, "wall_time": time.monotonic() - self.start,
                 "spent": bool(self.stopped or self.skipped), "stopped": list(self.stopped),
-                "skipped": list(self.skipped), "returned": returned}
+                "skipped": list(self.skipped), "returned": returned,
+                "longest_step": self.longest_step}
 
 
 def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> Candidate:
@@ -118,7 +121,8 @@ def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> 
 
 
 def optimise_candidate(context: PlanningContext, candidate: Candidate,
-                       pool: WorkerPool | None = None) -> Candidate:
+                       pool: WorkerPool | None = None, started: float | None = None
+                       ) -> Candidate:
     """Sec. V on one baseline candidate (module docstring) in the scene's planning
     ``context``; a non-"ok" candidate comes back as it is, relabelled planner "physics"."""
     if not candidate.ok:
@@ -126,12 +130,15 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate,
                        reason=f"no initialization: {candidate.reason or candidate.status}")
     scene, config = context.scene, context.config
     cfg = config.physics
-    budget = Budget(cfg.time_budget)
+    budget = Budget(cfg.time_budget, start=started or time.monotonic())
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
     if cfg.grasp_heights or cfg.approach_offsets:
         tic = time.perf_counter()
         try:
-            candidate, details["grasp_height"] = choose_height(context, candidate)
+            heights = Deadline(cfg.time_budget, start=budget.start)
+            candidate, details["grasp_height"] = choose_height(context, candidate, heights)
+            budget.skipped += heights.cut
+            budget.longest_step = heights.longest_step
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep the start
             details["grasp_height"] = {"error": str(exc)}
         timings["height"] = time.perf_counter() - tic
@@ -212,7 +219,8 @@ def plan_physics(scene: Scene, config: Config | None = None,
                  pool: WorkerPool | None = None) -> list[Candidate]:
     """Sec. V on every candidate (default: `baseline.plan_baseline` of the scene), in order:
     one physics Candidate each. A shared worker pool for phi's derivatives is created (and
-    closed) here unless one is passed in."""
+    closed) here unless one is passed in. The first candidate's budget also pays for the
+    planning worlds."""
     config = config or Config()
     check_config(config)
     if candidates is None:
@@ -220,8 +228,10 @@ def plan_physics(scene: Scene, config: Config | None = None,
     own = pool is None and config.dynamics.workers > 0
     pool = WorkerPool(config.dynamics.workers) if own else pool
     try:
+        started = time.monotonic()
         context = PlanningContext(scene, config)
-        return [optimise_candidate(context, c, pool) for c in candidates]
+        return [optimise_candidate(context, c, pool, started if i == 0 else None)
+                for i, c in enumerate(candidates)]
     finally:
         if own:
             pool.close()

@@ -41,7 +41,8 @@ from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
 def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Candidate]:
     """One "push" Candidate per baseline candidate in ``start``, in order (module
     docstring); phi's members are rolled out in ``dynamics.workers`` worker processes (0: in
-    this one)."""
+    this one). The first candidate's budget also pays for the planning worlds."""
+    started = time.monotonic()
     check_config(config)
     context = PlanningContext(scene, config)
     alphas = approach_angles(config.baseline)
@@ -55,7 +56,8 @@ def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Cand
                                      dict(candidate.details)))
                 continue
             index = int(np.argmin(np.abs(alphas - candidate.alpha)))
-            out.append(push_candidate(context, candidate, index, pool))
+            out.append(push_candidate(context, candidate, index, pool, started))
+            started = None
     finally:
         if pool is not None:
             pool.close()
@@ -63,11 +65,12 @@ def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Cand
 
 
 def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
-                   pool=None) -> Candidate:
+                   pool=None, started: float | None = None) -> Candidate:
     """The push planner on one baseline candidate (angle ``index`` of the baseline's) in the
-    scene's planning ``context``; ``pool``: `run_search`'s."""
+    scene's planning ``context``; ``pool``: `run_search`'s; ``started``: the `time.monotonic`
+    value its budget counts from (None: now)."""
     scene, config, geometry = context.scene, context.config, context.arm()
-    deadline = Deadline(config.push_search.time_budget)
+    deadline = Deadline(config.push_search.time_budget, start=started or time.monotonic())
     tic = time.perf_counter()
     found = height_candidates(context, candidate, deadline)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}

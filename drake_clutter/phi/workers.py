@@ -10,7 +10,7 @@ from collections import OrderedDict
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
-from drake_clutter.common.processes import exit_with_parent
+from drake_clutter.common.processes import exit_with_parent, stop_workers
 from drake_clutter.phi.autodiff import AutoDiffPhi
 from drake_clutter.phi.colouring import group_autodiff, group_differences
 from drake_clutter.phi.dynamics import PhiSpec
@@ -91,15 +91,23 @@ class WorkerPool:
         """Runs tasks (see `_run_task`) in the workers, results in task order."""
         return self.run(_run_task, tasks)
 
+    def start(self) -> None:
+        """Starts the workers without waiting for them: each imports its modules while the
+        caller goes on (its first `run` then finds them ready)."""
+        pool = self._started()
+        for _ in range(self.workers):
+            pool.submit(_ready)
+
     def warm_up(self, spec: PhiSpec) -> None:
         """Starts the workers and has them build ``spec``'s Phi (a timing convenience: a
         worker that takes none of these tasks builds it on first use)."""
         self.run(_build_only, [(spec.key, spec)] * (2 * self.workers))
 
     def close(self) -> None:
-        """Stops the workers."""
+        """Stops the workers now: every result asked for has been read by then, and a worker
+        still starting up (`start`) is not waited for."""
         if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
+            stop_workers(self._pool)
             self._pool = None
 
     def __enter__(self):
@@ -107,6 +115,10 @@ class WorkerPool:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def _ready() -> bool:
+    return True
 
 
 def _build_only(args) -> bool:

@@ -357,6 +357,8 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
     A path phi cannot settle or step reads failed (final_boxes None, jam None). Once the
     `time.monotonic` ``deadline`` has passed, no phi is built and no knot stepped: the paths
     not yet rolled out read `UNFINISHED`."""
+    if past(deadline):
+        return dict.fromkeys(paths, UNFINISHED)
     dyn = config.dynamics
     states = scene_box_states(world)
     first, *others = (np.asarray(q, float) for q in paths.values())
@@ -449,6 +451,8 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
     capsule arm with the boxes at rest (`PlanningContext.arm`). ``deadline`` (a
     `time.monotonic` value): no knot is stepped after it, and a path not rolled out in every
     member by then has no verdict (it is left out of the answer)."""
+    if past(deadline):
+        return {}
     checks = {name: plan_checks(scene, geometry, q, times, config, press=complete)
               for name, q in paths.items()}
     order = list(range(config.ensemble.members) if members is None else members)
@@ -464,7 +468,9 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
 
 def _member_task(job) -> dict[str, PhiFindings]:
     """`_member_found` in a worker process, with the worker's own capsule arm at rest."""
-    scene, config = job[0], job[3]
+    scene, config, deadline = job[0], job[3], job[-1]
+    if past(deadline):
+        return {}
     return _member_found(job, PlanningContext(scene, config).arm())
 
 
@@ -472,6 +478,8 @@ def _member_found(job, geometry: ArmGeometry) -> dict[str, PhiFindings]:
     """One member's findings of every path it finished, ``geometry`` the capsule arm with
     the boxes at rest."""
     scene, paths, times, config, checks, member, complete, deadline = job
+    if past(deadline):
+        return {}
     decided = set() if complete else {name for name, (limit, _) in checks.items() if limit}
     stop = None if complete else config.dynamics.jam_depth
     world, cfg = member_world(scene, config, member)

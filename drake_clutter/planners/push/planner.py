@@ -49,6 +49,8 @@ def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Cand
     pool = WorkerPool(config.dynamics.workers) if config.dynamics.workers > 0 else None
     out = []
     try:
+        if pool is not None:
+            pool.start()  # the workers start up while the starts are planned
         for candidate in start:
             if not candidate.ok:
                 out.append(Candidate(candidate.alpha, candidate.status, candidate.reason,

@@ -136,6 +136,8 @@ class Search:
                             self.judge_config, self.geometry, self.pool, members,
                             complete=False, deadline=self.deadline.at)
         self.counts["unjudged"] += len(names) - len(found)
+        if len(found) < len(names):
+            self.deadline.spend("judging")
         return found
 
     def frame(self, start: str):

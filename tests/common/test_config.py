@@ -13,7 +13,7 @@ def test_defaults_hold_the_paper_clutter_levels():
     assert config.generator.fridge.clutter_levels == (1, 2, 4, 6, 8, 10, 12, 14, 16)
     assert config.generator.scenes_per_level == 10
     assert config.generator.bookshelf.wall_thickness is None
-    assert config.generator.fridge.wall_thickness is not None
+    assert config.generator.fridge.wall_thickness == 0.02
 
 
 def test_yaml_then_command_line_overrides(tmp_path):

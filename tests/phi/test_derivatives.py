@@ -364,7 +364,7 @@ def test_contact_forces_and_their_jacobians_match_brute_force(point10):
     f, Fx, Fu = dynamics.linearize_forces(xs, us)
     nf = 1 + dynamics.layout.num_boxes
     assert f.shape == (len(us), nf) and Fx.shape == (len(us), nf, dynamics.layout.ndx)
-    assert Fu.shape == (len(us), nf, 8) and np.all(f >= 0)
+    assert Fu.shape == (len(us), nf, 8) and np.all(np.isfinite(f)) and np.all(f >= 0)
     edges = [_edges(dynamics, xs[t], us[t]) for t in range(len(us))]
     for t in range(len(us)):
         np.testing.assert_array_equal(f[t], dynamics.step_forces(xs[t], us[t]))

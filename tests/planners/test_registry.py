@@ -37,9 +37,9 @@ def test_the_registry_lists_the_planners_typed_yaml_accepts():
     assert planner_names() == ("baseline", "physics", "push")
     assert set(get_args(PlannerName)) == set(planner_names())
     for name in planner_names():
-        planner = get_planner(name)
-        assert planner.name == name
-        assert planner.starts_from is None or planner.starts_from in REGISTRY
+        assert get_planner(name).name == name
+    assert {name: get_planner(name).starts_from for name in planner_names()} == {
+        "baseline": None, "physics": "baseline", "push": "baseline"}
 
 
 def test_an_unknown_planner_names_the_file_and_field():

@@ -76,7 +76,8 @@ class Budget:
     stopped: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)
     forecast: float = 0.0  # s a phi world's set-up and one iteration took (`learn`)
-    longest_step: float = 0.0  # s the longest start planned for the height choice took
+    longest_step: float = 0.0  # s: the longest indivisible step (a height's start, a phi
+    # stage's set-up and first iteration), which no deadline can cut
 
     @property
     def deadline(self) -> float | None:
@@ -99,6 +100,7 @@ class Budget:
                     ("linearize", "quadratize", "backward", "forward"))
         iterations = max(1, record["iterations"])
         self.forecast = max(0.0, record["seconds"] - spent * (iterations - 1) / iterations)
+        self.longest_step = max(self.longest_step, self.forecast)
 
     def note(self, stage: str, result: ilqr.ILQRResult) -> None:
         """Records ``stage`` as cut short when its solver stopped at the deadline."""

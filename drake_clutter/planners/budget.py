@@ -13,6 +13,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+from drake_clutter.solvers.descent import past  # the solvers' deadline test, the same clock
+
 
 @dataclass
 class Deadline:
@@ -52,8 +54,3 @@ class Deadline:
         return {"budget": self.seconds, "wall_time": time.monotonic() - self.start,
                 "spent": bool(self.cut), "cut": list(self.cut),
                 "longest_step": self.longest_step}
-
-
-def past(at: float | None) -> bool:
-    """Whether the `time.monotonic` deadline ``at`` (None: none) has passed."""
-    return at is not None and time.monotonic() >= at

@@ -242,10 +242,8 @@ def _veto(s: Search, pick: str, best_start: str) -> tuple[str, dict | None]:
         return pick, None
     cfg = s.config.push_search
     held_out = range(cfg.members, cfg.members + cfg.veto_members)
-    if s.deadline.spend("veto"):
-        return best_start, {"members": list(held_out), "wins": False, "cut": True}
-    verdicts = s.judge([pick, best_start], members=held_out)
-    if len(verdicts) < 2:  # the budget ran out during the veto: the start is kept
+    verdicts = {} if s.deadline.spend("veto") else s.judge([pick, best_start], held_out)
+    if len(verdicts) < 2:  # the budget ran out before or during the veto: the start is kept
         return best_start, {"members": list(held_out), "wins": False, "cut": True}
     wins = verdicts[pick].class_key() < verdicts[best_start].class_key()
     return (pick if wins else best_start), {

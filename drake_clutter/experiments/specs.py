@@ -342,7 +342,8 @@ def run_unit(unit: dict) -> dict:
     return _strip(result)
 
 
-WALL_TIME_KEYS = ("seconds", "timings", "wall_time")  # in a plan's details: computer time
+# in a plan's details: computer time (a budget's longest indivisible step included)
+WALL_TIME_KEYS = ("seconds", "timings", "wall_time", "longest_step")
 
 
 def split_wall_times(details: dict) -> dict:

@@ -28,6 +28,7 @@ from drake_clutter.experiments.specs import (
     split_wall_times,
 )
 from drake_clutter.experiments.store import Store
+from drake_clutter.planners.budget import Deadline
 from drake_clutter.scene.generators import scene_set
 from drake_clutter.testing.specs import TINY_SPEC
 
@@ -287,6 +288,12 @@ def test_split_wall_times_keeps_plans_deterministic():
     taken = split_wall_times(details)
     assert details == {"height": 0.05, "stages": {"pre": {"cost_history": [3.0]}}}
     assert taken == {"stages": {"pre": {"seconds": 1.2, "timings": {"forward": 0.7}}}}
+
+
+def test_a_budget_record_keeps_only_what_does_not_vary_with_the_clock():
+    details = {"budget": Deadline(300.0).record()}
+    split_wall_times(details)
+    assert details == {"budget": {"budget": 300.0, "spent": False, "cut": []}}
 
 
 @pytest.mark.slow

@@ -327,6 +327,16 @@ class PushSearchConfig:
     jitter_offset: float = bounded(0.015, ge=0.0)
     # standard deviation of a perturbation's via-point progress and time, fraction; ours
     jitter_progress: float = bounded(0.04, ge=0.0)
+    # how a later round draws: the elite perturbed at fixed spreads, or cross-entropy, choice; ours
+    method: Literal["perturb", "cem"] = "perturb"
+    # paths drawn per later round by the cross-entropy search, over the elite in turn, count; ours
+    population: int = bounded(24, ge=1, le=100000)
+    # smallest spread of the cross-entropy search's via-point offsets, m; ours
+    spread_floor_offset: float = bounded(0.003, ge=0.0, le=0.5)
+    # smallest spread of the cross-entropy search's via-point progress and time, fraction; ours
+    spread_floor_progress: float = bounded(0.01, ge=0.0, le=0.5)
+    # weight of the old spread when the cross-entropy search refits it to the elite, unitless; ours
+    smoothing: float = bounded(0.5, ge=0.0, le=1.0)
     # return the first straight start that keeps off the boxes without a search, flag; ours
     clear_first: bool = True
     # rank the judged paths by the margin beneath the classes (PhiVerdict.key), flag; ours

@@ -10,9 +10,20 @@ yaws, knots at the same times, the first the baseline's own), in rounds (``push_
    (`trajectory.plan_limit_violation`), the baseline's dense shelf check. The starts and the
    kept members are judged together in phi (`phi_judge.judge_paths`: members 0 .. K - 1, K =
    ``push_search.members``, phi's engine ``push_search.engine``).
-2. **Later rounds**: the ``elite`` best bent paths so far each get ``perturbations`` copies
-   with their via-points jittered (`perturb`), built, checked and judged in the same members
-   (their verdicts compare with the earlier ones: same worlds, same seeds).
+2. **Later rounds** (``method``): the ``elite`` best bent paths so far are the means of the
+   round's sampling distribution, and copies of them with their via-points jittered
+   (`perturb`) are built, checked and judged in the same members (their verdicts compare with
+   the earlier ones: same worlds, same seeds).
+
+   - "perturb": each elite path gets ``perturbations`` copies, the jitter's spreads fixed at
+     ``jitter_progress`` and ``jitter_offset``.
+   - "cem" (cross-entropy, as MuJoCo MPC's planner runs it over its parameters): ``population``
+     copies, over the elite in turn; the spreads start at the jitter's and after each round
+     are refit to the elite (`Search.refit`): the root mean square of each elite path's
+     offsets from the path it was drawn from, per kind (times and progresses; sideways and
+     vertical offsets), mixed with the old spread by ``smoothing`` and floored at
+     ``spread_floor_progress`` and ``spread_floor_offset``. An elite of first-round draws
+     alone leaves the spreads as they are.
 3. **The pick**: the best verdict (`PhiVerdict.key`: P(success), expected grade, the margin
    (how near the classes' limits), boxes disturbed; ties to the earlier path, starts first).
    The elite of a later round is ranked the same way, so paths that all fail are perturbed
@@ -59,6 +70,7 @@ class Sample:
     start: str
     member: PushPath | None
     q: np.ndarray
+    parent: str | None = None  # the judged path it was drawn from (None: a start or a draw)
 
 
 @dataclass(frozen=True)
@@ -71,23 +83,36 @@ class SearchResult:
     record: dict
 
 
-def perturb(rng: np.random.Generator, member: PushPath, search: PushSearchConfig
-            ) -> PushPath:
+def perturb(rng: np.random.Generator, member: PushPath, search: PushSearchConfig,
+            spread: tuple[float, float] | None = None) -> PushPath:
     """``member`` with each via-point's time and progress (and the gripper's opening time,
-    if it has one) moved by N(0, jitter_progress) and its offsets by N(0, jitter_offset) (m);
-    times and progresses kept in [0.02, 0.98] and the times in order."""
+    if it has one) moved by N(0, progress spread) and its offsets by N(0, offset spread) (m);
+    times and progresses kept in [0.02, 0.98] and the times in order. ``spread``: (progress
+    fraction, offset m); None: ``jitter_progress`` and ``jitter_offset``."""
+    sd_progress, sd_offset = spread or (search.jitter_progress, search.jitter_offset)
     vias = []
     for v in member.vias:
         knot, progress = np.clip(np.array([v.knot, v.progress])
-                                 + rng.normal(0.0, search.jitter_progress, 2), 0.02, 0.98)
+                                 + rng.normal(0.0, sd_progress, 2), 0.02, 0.98)
         lateral, vertical = np.array([v.lateral, v.vertical]) + rng.normal(
-            0.0, search.jitter_offset, 2)
+            0.0, sd_offset, 2)
         vias.append(ViaPoint(float(knot), float(progress), float(lateral), float(vertical)))
     knots = sorted(v.knot for v in vias)
     vias = [replace(v, knot=k) for v, k in zip(vias, knots, strict=True)]
-    open_at = (float(np.clip(member.open_at + rng.normal(0.0, search.jitter_progress), 0.02,
+    open_at = (float(np.clip(member.open_at + rng.normal(0.0, sd_progress), 0.02,
                              0.98)) if member.open_at else 0.0)
     return PushPath(tuple(vias), open_at)
+
+
+def offsets(child: PushPath, parent: PushPath) -> tuple[np.ndarray, np.ndarray]:
+    """How far ``child`` lies from the ``parent`` it was perturbed from: the differences of
+    the via-points' times and progresses (and of the opening time, if any; fractions) and of
+    their sideways and vertical offsets (m)."""
+    a = np.array([[v.knot, v.progress, v.lateral, v.vertical] for v in child.vias])
+    b = np.array([[v.knot, v.progress, v.lateral, v.vertical] for v in parent.vias])
+    progress = np.r_[(a[:, :2] - b[:, :2]).ravel(),
+                     [child.open_at - parent.open_at] if parent.open_at else []]
+    return progress, (a[:, 2:] - b[:, 2:]).ravel()
 
 
 class Search:
@@ -109,11 +134,13 @@ class Search:
                         for name, q in starts.items()}
         self.verdicts: dict[str, PhiVerdict] = {}
         self.counts = {"drawn": 0, "feasible": 0, "unjudged": 0}
+        self.spread = (search.jitter_progress, search.jitter_offset)  # (fraction, m)
         self._frames = {}
 
-    def add(self, name: str, start: str, member: PushPath) -> bool:
-        """Builds ``member`` about the start path ``start`` and keeps it as ``name`` if
-        feasible; nothing is built once the deadline has passed."""
+    def add(self, name: str, start: str, member: PushPath, parent: str | None = None) -> bool:
+        """Builds ``member`` about the start path ``start`` (drawn from the judged path
+        ``parent``, if any) and keeps it as ``name`` if feasible; nothing is built once the
+        deadline has passed."""
         if self.deadline.spend("draws"):
             return False
         self.counts["drawn"] += 1
@@ -124,7 +151,7 @@ class Search:
         if not feasible(q, error, self.times, self.clearance, self.config):
             return False
         self.counts["feasible"] += 1
-        self.samples[name] = Sample(start, member, q)
+        self.samples[name] = Sample(start, member, q, parent)
         return True
 
     def judge(self, names: list[str], members=None) -> dict[str, PhiVerdict]:
@@ -162,14 +189,55 @@ class Search:
         """The best judged path among ``names`` (ties to the earlier)."""
         return self.ranked(names)[0]
 
+    def elite(self) -> list[str]:
+        """The ``push_search.elite`` best bent paths judged so far, best first."""
+        bent = [n for n in self.verdicts if self.samples[n].member is not None]
+        return self.ranked(bent)[:self.config.push_search.elite]
+
+    def refit(self) -> tuple[float, float]:
+        """The cross-entropy update of the spreads (module docstring) from the elite; returns
+        and keeps the new (progress fraction, offset m)."""
+        cfg = self.config.push_search
+        drawn = [self.samples[n] for n in self.elite() if self.samples[n].parent is not None]
+        if not drawn:
+            return self.spread
+        steps = [offsets(d.member, self.samples[d.parent].member) for d in drawn]
+        fitted = [float(np.sqrt(np.mean(np.concatenate([st[k] for st in steps]) ** 2)))
+                  for k in (0, 1)]
+        floors = (cfg.spread_floor_progress, cfg.spread_floor_offset)
+        self.spread = tuple(max(floor, cfg.smoothing * old + (1.0 - cfg.smoothing) * new)
+                            for old, new, floor in zip(self.spread, fitted, floors,
+                                                       strict=True))
+        return self.spread
+
+    def veto(self, pick: str, best_start: str) -> tuple[str, dict | None]:
+        """The path returned: ``pick`` if it is a start, or if its classes' reading also beats
+        ``best_start``'s on the held-out members; else ``best_start`` (also when the budget
+        cuts the veto). The veto's verdicts (None: no veto run)."""
+        if self.samples[pick].member is None:
+            return pick, None
+        cfg = self.config.push_search
+        held_out = range(cfg.members, cfg.members + cfg.veto_members)
+        verdicts = {} if self.deadline.spend("veto") else self.judge([pick, best_start],
+                                                                      held_out)
+        if len(verdicts) < 2:  # the budget ran out before or during the veto: start kept
+            return best_start, {"members": list(held_out), "wins": False, "cut": True}
+        wins = verdicts[pick].class_key() < verdicts[best_start].class_key()
+        return (pick if wins else best_start), {
+            "members": list(held_out), "wins": wins,
+            **{n: {"p_success": v.p_success, "expected_grade": v.expected_grade}
+               for n, v in verdicts.items()}}
+
 
 def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, config: Config,
                geometry: ArmGeometry, clearance: ShelfClearance, index: int = 0, pool=None,
-               deadline: Deadline | None = None) -> SearchResult:
+               deadline: Deadline | None = None, observe=None) -> SearchResult:
     """The search of one approach angle (``index``, seeds the draws) from the straight
     ``starts`` (name: knots (T + 1, 8), the first the baseline's; knots at ``times`` s);
     see the module docstring. ``pool``: a `phi.workers.WorkerPool` the members are rolled
-    out in (the same result); ``deadline``: the initialization's budget (None: none)."""
+    out in (the same result); ``deadline``: the initialization's budget (None: none);
+    ``observe``: called as ``observe(round, search, best_start)`` after each round (to read
+    the search at any time; it must not change it)."""
     tic = time.perf_counter()
     cfg = config.push_search
     s = Search(scene, starts, times, config, geometry, clearance, pool, deadline)
@@ -188,11 +256,15 @@ def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, c
                 break
             rng = np.random.default_rng([cfg.seed, index, round_])
             names = (_draw_round(s, rng, list(starts)) if round_ == 0
-                     else _perturb_round(s, rng, round_))
+                     else LATER_ROUNDS[cfg.method](s, rng, round_))
             s.verdicts.update(s.judge(names))
-            record["rounds"].append({"judged": len(names)})
+            spread = s.refit() if cfg.method == "cem" else s.spread
+            record["rounds"].append({"judged": len(names), "best": s.best(list(s.verdicts)),
+                                     "spread": list(spread)})
+            if observe is not None:
+                observe(round_, s, best_start)
     pick = s.best(list(s.verdicts))
-    chosen, veto = _veto(s, pick, best_start)
+    chosen, veto = s.veto(pick, best_start)
     record.update(counts=s.counts, pick=pick, veto=veto, chosen=chosen,
                   seconds=time.perf_counter() - tic,
                   verdicts={n: _summary(v, s.samples[n]) for n, v in s.verdicts.items()})
@@ -220,36 +292,35 @@ def _draw_round(s: Search, rng: np.random.Generator, starts: list[str]) -> list[
 
 
 def _perturb_round(s: Search, rng: np.random.Generator, round_: int) -> list[str]:
-    """A later round: the elite bent paths each perturbed; the kept names."""
+    """A later round ("perturb"): the elite bent paths each perturbed ``perturbations``
+    times at the fixed spreads; the kept names."""
     cfg = s.config.push_search
-    bent = [n for n in s.verdicts if s.samples[n].member is not None]
-    elite = s.ranked(bent)
     kept = []
-    for e, name in enumerate(elite[:cfg.elite]):
+    for e, name in enumerate(s.elite()):
         sample = s.samples[name]
         for j in range(cfg.perturbations):
             new = f"{sample.start}/r{round_}m{e * cfg.perturbations + j}"
-            if s.add(new, sample.start, perturb(rng, sample.member, cfg)):
+            if s.add(new, sample.start, perturb(rng, sample.member, cfg), parent=name):
                 kept.append(new)
     return kept
 
 
-def _veto(s: Search, pick: str, best_start: str) -> tuple[str, dict | None]:
-    """The path returned: ``pick`` if it is a start, or if its classes' reading also beats
-    ``best_start``'s on the held-out members; else ``best_start`` (also when the budget cuts
-    the veto). The veto's verdicts (None: no veto run)."""
-    if s.samples[pick].member is None:
-        return pick, None
+def _cem_round(s: Search, rng: np.random.Generator, round_: int) -> list[str]:
+    """A later round ("cem"): ``population`` paths drawn about the elite in turn at the
+    search's current spreads; the kept names."""
     cfg = s.config.push_search
-    held_out = range(cfg.members, cfg.members + cfg.veto_members)
-    verdicts = {} if s.deadline.spend("veto") else s.judge([pick, best_start], held_out)
-    if len(verdicts) < 2:  # the budget ran out before or during the veto: the start is kept
-        return best_start, {"members": list(held_out), "wins": False, "cut": True}
-    wins = verdicts[pick].class_key() < verdicts[best_start].class_key()
-    return (pick if wins else best_start), {
-        "members": list(held_out), "wins": wins,
-        **{n: {"p_success": v.p_success, "expected_grade": v.expected_grade}
-           for n, v in verdicts.items()}}
+    elite = s.elite()
+    kept = []
+    for i in range(cfg.population if elite else 0):
+        name = elite[i % len(elite)]
+        sample = s.samples[name]
+        new = f"{sample.start}/r{round_}m{i}"
+        if s.add(new, sample.start, perturb(rng, sample.member, cfg, s.spread), parent=name):
+            kept.append(new)
+    return kept
+
+
+LATER_ROUNDS = {"perturb": _perturb_round, "cem": _cem_round}  # push_search.method
 
 
 def _summary(verdict: PhiVerdict, sample: Sample) -> dict:

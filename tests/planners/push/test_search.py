@@ -19,7 +19,7 @@ from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.phi_judge import PhiReading, PhiVerdict
 from drake_clutter.planners.push import search as search_module
 from drake_clutter.planners.push.family import PushPath, ViaPoint
-from drake_clutter.planners.push.search import perturb, run_search
+from drake_clutter.planners.push.search import offsets, perturb, run_search
 from drake_clutter.planners.registry import get_planner
 from drake_clutter.scene import scenes
 
@@ -53,6 +53,50 @@ def test_a_perturbation_keeps_the_member_in_order_and_in_range():
     again = perturb(np.random.default_rng(0), member, search)
     assert again == moved[0]
     assert perturb(rng, PushPath(member.vias), search).open_at == 0.0
+
+
+def test_offsets_are_the_differences_from_the_parent():
+    parent = PushPath((ViaPoint(0.3, 0.4, 0.05, 0.0), ViaPoint(0.35, 0.5, -0.02, 0.01)), 0.6)
+    child = PushPath((ViaPoint(0.32, 0.37, 0.06, -0.01), ViaPoint(0.4, 0.5, -0.02, 0.03)), 0.5)
+    progress, offset = offsets(child, parent)
+    np.testing.assert_allclose(progress, [0.02, -0.03, 0.05, 0.0, -0.1], atol=1e-12)
+    np.testing.assert_allclose(offset, [0.01, -0.01, 0.0, 0.02], atol=1e-12)
+    assert offsets(PushPath(child.vias), PushPath(parent.vias))[0].size == 4  # no opening
+
+
+def _nearness_judge(start_q, aim):
+    """A scripted judge: every path fails to grasp, its margin how far its largest joint
+    deviation from ``start_q`` is from ``aim`` (rad): a smooth score to climb."""
+    def judge(scene, paths, times, config, pool=None, geometry=None, members=None,
+              complete=True, deadline=None):
+        return {n: PhiVerdict((PhiReading("failure_to_grasp", "", 0, abs(
+            float(np.abs(q - start_q).max()) - aim)),)) for n, q in paths.items()}
+    return judge
+
+
+def test_the_cross_entropy_search_climbs_and_refits_its_spreads(setting, monkeypatch):
+    scene, trajectory, geometry, clearance = setting
+    monkeypatch.setattr(search_module, "judge_paths", _nearness_judge(trajectory.q, 0.15))
+    config = load_config(None, [*SMALL, "push_search.method=cem", "push_search.samples=6",
+                                "push_search.rounds=4", "push_search.elite=2",
+                                "push_search.population=6", "push_search.veto_members=1",
+                                "push_search.spread_floor_offset=0.004"])
+    seen = []
+    result = run_search(scene, {"a": trajectory.q}, trajectory.times, config, geometry,
+                        clearance, observe=lambda r, s, best: seen.append((r, s.elite())))
+    record = result.record
+    assert [r for r, _ in seen] == [0, 1, 2, 3]
+    margins = {n: v["margin"] for n, v in record["verdicts"].items()}
+    first = min(m for n, m in margins.items() if "/r0m" in n)
+    assert margins[record["rounds"][-1]["best"]] < first  # later rounds came nearer
+    spreads = [tuple(r["spread"]) for r in record["rounds"]]
+    assert spreads[0] == (0.04, 0.015)  # round 1's elite are draws: no step to refit to
+    assert len(set(spreads[1:])) > 1 and all(o >= 0.004 for _, o in spreads)
+    assert sum(1 for n in margins if "/r1m" in n) == record["rounds"][1]["judged"] <= 6
+    again = run_search(scene, {"a": trajectory.q}, trajectory.times, config, geometry,
+                       clearance)
+    assert again.record["verdicts"].keys() == record["verdicts"].keys()
+    assert again.record["rounds"] == record["rounds"]
 
 
 def test_the_veto_keeps_the_start_unless_the_pick_wins_on_unseen_members(setting, monkeypatch):

@@ -41,7 +41,7 @@ from drake_clutter.experiments.paired import bootstrap_interval
 from drake_clutter.experiments.specs import plan_one_angle, stored_scene
 from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.push.planner import reads_a_grasp
+from drake_clutter.planners.push.planner import falls_back
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.planners.starts import height_candidates, start_key
 from drake_clutter.trajectory import Trajectory
@@ -64,14 +64,12 @@ def searched(db: str, configuration: str) -> list[tuple[str, int, str]]:
     return out
 
 
-def returned(search, name: str, baseline_q: np.ndarray) -> tuple[str, np.ndarray]:
-    """What the push planner returns for the search's chosen ``name``: it, or the baseline's
-    path when its verdict reads no grasp in phi (`push_search.fallback`)."""
-    verdict = search.verdicts.get(name)
-    kinds = [r.kind for r in verdict.readings] if verdict else []
-    if verdict is None or not reads_a_grasp({"kinds": kinds}):
-        return "baseline", baseline_q
-    return name, search.samples[name].q
+def returned(name: str, q: np.ndarray, verdict: dict | None, baseline_q: np.ndarray,
+             config) -> tuple[str, np.ndarray]:
+    """What the push planner returns for the search's chosen path ``name`` (knots ``q``, its
+    verdict summary ``verdict``): it, or the baseline's path where the planner falls back
+    (`planner.falls_back`)."""
+    return ("baseline", baseline_q) if falls_back(verdict, config) else (name, q)
 
 
 def one(job: dict) -> dict:
@@ -100,8 +98,8 @@ def one(job: dict) -> dict:
     tic = time.perf_counter()
     today = run_search(scene, starts, times, config, geometry, context.clearance, job["angle"])
     today_seconds = time.perf_counter() - tic
-    t_name = today.name if reads_a_grasp(today.record["verdicts"][today.name]) else "baseline"
-    t_q = today.q if t_name != "baseline" else baseline.trajectory.q
+    t_name, t_q = returned(today.name, today.q, today.record["verdicts"].get(today.name),
+                           baseline.trajectory.q, config)
     checkpoints, last, clock = [], {}, {"spent": 0.0, "tic": time.perf_counter()}
 
     def observe(round_, search, best_start):
@@ -109,7 +107,11 @@ def one(job: dict) -> dict:
         pick = search.best(list(search.verdicts))
         if last.get("pick") != pick:
             chosen, _ = search.veto(pick, best_start)
-            last.update(pick=pick, answer=returned(search, chosen, baseline.trajectory.q))
+            verdict = search.verdicts.get(chosen)
+            last.update(pick=pick, answer=returned(
+                chosen, search.samples[chosen].q,
+                verdict and {"kinds": [r.kind for r in verdict.readings]},
+                baseline.trajectory.q, cem))
         name, q = last["answer"]
         checkpoints.append({"round": round_, "paths": len(search.verdicts), "chosen": name,
                             "bent": "/" in name, "seconds": clock["spent"], **judge(q)})

@@ -92,13 +92,19 @@ def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
     details = {"initialization": candidate.planner, "search": result.record,
                "chosen": result.name, "budget": deadline.record()}
     trajectory = Trajectory(candidate.trajectory.times.copy(), result.q)
-    verdict = result.record["verdicts"].get(result.name)
-    if verdict is None or (config.push_search.fallback and not reads_a_grasp(verdict)):
+    if falls_back(result.record["verdicts"].get(result.name), config):
         details["chosen"] = FALLBACK
         trajectory = Trajectory(candidate.trajectory.times.copy(),
                                 candidate.trajectory.q.copy())
     return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
                      timings=timings, details=details)
+
+
+def falls_back(verdict: dict | None, config: Config) -> bool:
+    """Whether the baseline's own path replaces the search's chosen path, whose verdict
+    summary is ``verdict`` (None: not judged): with ``push_search.fallback``, when it reads
+    no grasp in any member of phi."""
+    return verdict is None or (config.push_search.fallback and not reads_a_grasp(verdict))
 
 
 def reads_a_grasp(verdict: dict) -> bool:

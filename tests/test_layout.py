@@ -1,11 +1,11 @@
 """The package's rooms and the one direction of imports between them (read with ``ast``).
 
 Each subpackage of ``drake_clutter`` may import only the rooms listed for it in ALLOWED (its
-own modules always); ``solvers`` imports no pydrake; nothing in the package, the apps or the
-benchmarks imports ``drake_clutter.cli`` or ``apps``; no test or benchmark reaches a helper
-through ``sys.path``; every subpackage says in its docstring what it owns and may import; no
-module imports itself back through others (an import cycle), at module level or inside a
-function.
+own modules always); ``solvers`` imports no pydrake; nothing in the package, the apps, the
+benchmarks or the studies imports ``drake_clutter.cli`` or ``apps``; no test or script reaches
+a helper through ``sys.path``; every subpackage says in its docstring what it owns and may
+import; no module imports itself back through others (an import cycle), at module level or
+inside a function.
 """
 
 from __future__ import annotations
@@ -96,7 +96,7 @@ def test_imports_point_one_way(path):
 
 def _outside_files() -> list[Path]:
     return sorted([*(REPO / "apps").glob("*.py"), *(REPO / "benchmarks").glob("*.py"),
-                   *(REPO / "tests").rglob("*.py")])
+                   *(REPO / "studies").glob("*.py"), *(REPO / "tests").rglob("*.py")])
 
 
 @pytest.mark.parametrize("path", [*_package_files(), *_outside_files()],

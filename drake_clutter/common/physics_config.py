@@ -180,6 +180,8 @@ class PhysicsConfig:
     grasp_heights: tuple[float, ...] = bounded((0.6, 0.7, 0.8, 0.9), gt=0.0, le=1.0)
     # approach angle offsets also tried at every grasp height (the first clear start), rad; ours
     approach_offsets: tuple[float, ...] = bounded((), ge=-0.5, le=0.5)
+    # yaw turns toward alpha = 0 the push planner tries when no start plans at the angle, rad; ours
+    recovery_turns: tuple[float, ...] = bounded((0.1, 0.2, 0.3), gt=0.0, le=0.5)
     # deepest press (physics.press_normal_z) a straight start counts as none, m; ours
     press_tolerance: float = bounded(0.0005, ge=0.0)
     # deepest entry into a non-target box's side a straight start counts as none, m; ours

@@ -4,9 +4,13 @@ each grasp height and yaw of ``physics.grasp_heights`` and ``physics.approach_of
 (`geometry.clear_paths`, with ``push_search.clear_first``), else the sampling search over the push
 family from them all, scored by the judge in phi (`search.run_search`).
 
-The scene's planning worlds are built once (`context.PlanningContext`) and serve every angle. A
-candidate the baseline could not plan comes back as it is, relabelled "push"; a search that
-finds nothing better returns its best start, recorded as such. With ``push_search.fallback``, a
+The scene's planning worlds are built once (`context.PlanningContext`) and serve every angle.
+Where the baseline's own path failed (IK, the optimiser, the dense shelf check), the other
+heights are planned all the same, and where none plans, the line turned toward the shelf's
+axis (`starts.turned_starts`, ``physics.recovery_turns``); a path planned so records the
+baseline's failure in ``details["recovered"]`` and never falls back to it. With no start at
+all the baseline's failure comes back as it is, relabelled "push". A search that finds
+nothing better returns its best start, recorded as such. With ``push_search.fallback``, a
 search whose pick reads neither success nor partial success in any member of phi returns the
 baseline's own path instead (``details["chosen"]`` "baseline", the search's pick kept in
 ``details["search"]["chosen"]``): among paths that all fail in phi, its reading of which failure
@@ -33,7 +37,7 @@ from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import clear_paths
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.planners.selection import FALLBACK
-from drake_clutter.planners.starts import height_candidates, start_key
+from drake_clutter.planners.starts import height_candidates, start_key, turned_starts
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
 
@@ -52,11 +56,6 @@ def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Cand
         if pool is not None:
             pool.start()  # the workers start up while the starts are planned
         for candidate in start:
-            if not candidate.ok:
-                out.append(Candidate(candidate.alpha, candidate.status, candidate.reason,
-                                     candidate.trajectory, "push", dict(candidate.timings),
-                                     dict(candidate.details)))
-                continue
             index = int(np.argmin(np.abs(alphas - candidate.alpha)))
             out.append(push_candidate(context, candidate, index, pool, started))
             started = None
@@ -75,29 +74,44 @@ def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
     deadline = Deadline(config.push_search.time_budget, start=started or time.monotonic())
     tic = time.perf_counter()
     found = height_candidates(context, candidate, deadline)
-    starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
+    if not found and not candidate.ok:
+        found = turned_starts(context, candidate, deadline)
     timings = {"heights": time.perf_counter() - tic}
+    if not found:
+        return failed(candidate, timings, deadline)
+    starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
+    times = next(iter(found.values())).trajectory.times
     clear = clear_paths(geometry, starts, config, scene.target) if (
         config.push_search.clear_first) else []
+    recovered = {} if candidate.ok else {"recovered": {"status": candidate.status.value,
+                                                       "reason": candidate.reason}}
     if clear:
         details = {"initialization": candidate.planner, "clear": clear, "chosen": clear[0],
-                   "budget": deadline.record()}
-        trajectory = Trajectory(candidate.trajectory.times.copy(), starts[clear[0]])
+                   "budget": deadline.record(), **recovered}
+        trajectory = Trajectory(times.copy(), starts[clear[0]])
         return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
                          timings=timings, details=details)
     tic = time.perf_counter()
-    result = run_search(scene, starts, candidate.trajectory.times, config, geometry,
-                        context.clearance, index, pool, deadline)
+    result = run_search(scene, starts, times, config, geometry, context.clearance, index,
+                        pool, deadline)
     timings["search"] = time.perf_counter() - tic
     details = {"initialization": candidate.planner, "search": result.record,
-               "chosen": result.name, "budget": deadline.record()}
-    trajectory = Trajectory(candidate.trajectory.times.copy(), result.q)
-    if falls_back(result.record["verdicts"].get(result.name), config):
+               "chosen": result.name, "budget": deadline.record(), **recovered}
+    trajectory = Trajectory(times.copy(), result.q)
+    if candidate.ok and falls_back(result.record["verdicts"].get(result.name), config):
         details["chosen"] = FALLBACK
         trajectory = Trajectory(candidate.trajectory.times.copy(),
                                 candidate.trajectory.q.copy())
     return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
                      timings=timings, details=details)
+
+
+def failed(candidate: Candidate, timings: dict, deadline: Deadline) -> Candidate:
+    """The baseline's failed ``candidate``, relabelled "push", when no start planned at its
+    angle, turned or not: its status and reason, the starts' ``timings`` (s) added."""
+    details = dict(candidate.details) | {"budget": deadline.record()}
+    return Candidate(candidate.alpha, candidate.status, candidate.reason, candidate.trajectory,
+                     "push", dict(candidate.timings) | timings, details)
 
 
 def falls_back(verdict: dict | None, config: Config) -> bool:

@@ -131,14 +131,15 @@ def outcome_table(plans: dict, selected: dict[str, int | None] | None = None) ->
 
 def choose_angle(plans: dict) -> tuple[int, list[str]] | None:
     """(angle index, planners with a usable plan there) to replay: among the angles where every
-    planner made a plan, the best outcome of the first planner shown, ties broken by the next
-    ones, then the first angle; else the best angle of any single planner; None when no plan
-    is usable."""
+    planner made a plan, the best outcome of the first planner shown, ties going to the angle
+    where the next ones did worst (where the first planner's plan differs most), then the
+    first angle; else the best angle of any single planner; None when no plan is usable."""
     names = list(plans)
     count = len(plans[names[0]][0])
 
     def rank(i, among):
-        return tuple(_RANK.index(plans[n][1][i].kind) for n in among) + (i,)
+        first, *others = (_RANK.index(plans[n][1][i].kind) for n in among)
+        return (first, *(-k for k in others), i)
 
     usable = {i: [n for n in names if plans[n][0][i].ok] for i in range(count)}
     full = [i for i in range(count) if len(usable[i]) == len(names)]

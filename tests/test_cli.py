@@ -118,6 +118,12 @@ def test_plan_scene_app_writes_html_of_default_scene(tmp_path):
     paths = static_html_paths(out.read_text())
     for box in load_shipped_scene(DEFAULT_SCENE).boxes:
         assert f"/drake/illustration/boxes/{box.name}" in paths
+    # The default scene shows what the push planner is for: at -0.5 rad the path its search
+    # returns succeeds where the baseline's straight one jams, and the replay shows that angle.
+    row = next(line for line in result.stdout.splitlines() if line.startswith(" -0.500"))
+    assert row.split()[1:2] == ["success"] and "kinematic_failure" in row and "search=" in row
+    assert ("replay" in result.stdout and "push alpha -0.500 (success) right" in result.stdout
+            and "baseline alpha -0.500 (kinematic_failure) left" in result.stdout)
 
 
 @pytest.mark.parametrize("args, field", [(["--jobs", "0"], "--jobs"),

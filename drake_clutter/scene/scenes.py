@@ -328,7 +328,7 @@ def save_scene(scene: Scene, path: str | Path) -> Path:
 # ----------------------------------------------------------------------------- shipped scenes
 
 SHIPPED_PACKAGE = "drake_clutter.scene.shipped"
-DEFAULT_SCENE = "default_fridge"
+DEFAULT_SCENE = "default_push"
 
 
 def shipped_scene_names() -> list[str]:

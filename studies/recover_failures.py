@@ -8,10 +8,11 @@ before the push planner plans from them.
 For every scene of the tier and every approach angle (all 14, as paper_protocol plans them),
 the baseline's path is planned as a tier unit plans it (alone, no neighbour's IK solution).
 Where it fails (IK, the optimiser, or the dense shelf check), the push planner's other straight
-starts (`starts.height_candidates`: the grasp heights of ``physics.grasp_heights`` and the yaws
-of ``physics.approach_offsets``) are planned. Printed: per environment and clutter level, the
-failed angles, by status, and how many have at least one start; the tier's own angles (the
-probe's 4, 6, 7, 9) apart.
+starts are planned as it plans them (`starts.planned_starts`: the grasp heights of
+``physics.grasp_heights`` and yaws of ``physics.approach_offsets``, then the line turned by
+``physics.recovery_turns``). Printed: per environment and clutter level, the failed angles, by
+status, how many have at least one start and of those how many only turned; the tier's own
+angles (the probe's 4, 6, 7, 9) apart.
 
 With ``--judge``, every failed angle is then run as the tier runs a push unit
 (`specs.run_unit`: the push planner, then the robust judge, K = 8): printed per angle, what the
@@ -31,7 +32,7 @@ from drake_clutter.experiments.specs import expand, load_spec, run_unit
 from drake_clutter.planners import baseline
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.starts import height_candidates, start_key
+from drake_clutter.planners.starts import planned_starts, start_key
 from drake_clutter.scene.generators import SceneSpec, generate_scene
 
 FIXED = ["dynamics.workers=0", "evaluation.robust_replays=8"]
@@ -51,9 +52,10 @@ def one(source: tuple) -> list[dict]:
             config.baseline.grasp_height_fraction), float(alpha), index)
         row = {"scene": scene.name, "kind": kind, "level": int(n), "angle": index,
                "status": candidate.status.value, "reason": candidate.reason}
-        if not candidate.ok:
-            found = height_candidates(context, candidate)
+        if not candidate.ok:  # the starts the push planner plans from, as it plans them
+            found = planned_starts(context, candidate)
             row["starts"] = [start_key(*key) for key in found]
+            row["turned"] = any(offset != 0.0 for _, offset in found)
         rows.append(row)
     return rows
 
@@ -124,7 +126,7 @@ def summarise(rows: list[dict]) -> None:
     """Prints the failed angles per environment and level, by status, and those with a start."""
     for label, keep in (("all 14 angles", lambda r: True),
                         ("probe angles", lambda r: r["angle"] in PROBE_ANGLES)):
-        print(f"\n{label}: env level  units  failed  with a start  by status")
+        print(f"\n{label}: env level  units  failed  with a start (turned)  by status")
         groups = defaultdict(list)
         for r in rows:
             if keep(r):
@@ -134,12 +136,13 @@ def summarise(rows: list[dict]) -> None:
             g = groups[key]
             failed = [r for r in g if r["status"] != "ok"]
             recovered = [r for r in failed if r.get("starts")]
+            turned = sum(bool(r.get("turned")) for r in failed)
             status = Counter(r["status"] for r in failed)
-            total.update(units=len(g), failed=len(failed), recovered=len(recovered))
+            total.update(units=len(g), failed=len(failed), recovered=len(recovered), turned=turned)
             print(f"  {key[0]:>9} {key[1]:>3} {len(g):>6} {len(failed):>7} {len(recovered):>13}"
-                  f"  {dict(status)}")
+                  f" ({turned})  {dict(status)}")
         print(f"  {'total':>13} {total['units']:>6} {total['failed']:>7} "
-              f"{total['recovered']:>13}")
+              f"{total['recovered']:>13} ({total['turned']})")
 
 
 if __name__ == "__main__":

@@ -66,6 +66,16 @@ def turned_starts(context: PlanningContext, candidate: Candidate,
     return {}
 
 
+def planned_starts(context: PlanningContext, candidate: Candidate,
+                   deadline: Deadline | None = None) -> dict[tuple[float, float], Candidate]:
+    """The straight starts of ``candidate``'s angle (`height_candidates`); for a failed
+    ``candidate`` with none, those of the line turned toward alpha = 0 (`turned_starts`)."""
+    found = height_candidates(context, candidate, deadline)
+    if not found and not candidate.ok:
+        found = turned_starts(context, candidate, deadline)
+    return found
+
+
 def _fractions(config) -> list[float]:
     """The grasp height fractions of the starts: the baseline's, then ``physics.grasp_heights``."""
     base = config.baseline.grasp_height_fraction

@@ -7,7 +7,7 @@ family from them all, scored by the judge in phi (`search.run_search`).
 The scene's planning worlds are built once (`context.PlanningContext`) and serve every angle.
 Where the baseline's own path failed (IK, the optimiser, the dense shelf check), the other
 heights are planned all the same, and where none plans, the line turned toward the shelf's
-axis (`starts.turned_starts`, ``physics.recovery_turns``); a path planned so records the
+axis (`starts.planned_starts`, ``physics.recovery_turns``); a path planned so records the
 baseline's failure in ``details["recovered"]`` and never falls back to it. With no start at
 all the baseline's failure comes back as it is, relabelled "push". A search that finds
 nothing better returns its best start, recorded as such. With ``push_search.fallback``, a
@@ -37,7 +37,7 @@ from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import clear_paths
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.planners.selection import FALLBACK
-from drake_clutter.planners.starts import height_candidates, start_key, turned_starts
+from drake_clutter.planners.starts import planned_starts, start_key
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
 
@@ -73,9 +73,7 @@ def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
     scene, config, geometry = context.scene, context.config, context.arm()
     deadline = Deadline(config.push_search.time_budget, start=started or time.monotonic())
     tic = time.perf_counter()
-    found = height_candidates(context, candidate, deadline)
-    if not found and not candidate.ok:
-        found = turned_starts(context, candidate, deadline)
+    found = planned_starts(context, candidate, deadline)
     timings = {"heights": time.perf_counter() - tic}
     if not found:
         return failed(candidate, timings, deadline)

@@ -9,6 +9,8 @@ Subcommands:
   evaluate SCENE PLAN.json [--lift] [--robust K] [--seed S] --out OUTCOMES.json
   experiment run SPEC|TIER --db RUN.db [--workers N] [--executor local|ray]
   experiment rejudge RUN.db --db NEW.db [--set evaluation.FIELD=VALUE ...]
+  experiment digests TIER|bench ... [--out FILE] | --compare OLD NEW
+  stores compare A.db B.db ... --against CONFIGURATION/PLANNER
   report RUN.db --out DIR
   config show [--config FILE] [--set key=value ...]
 
@@ -221,6 +223,34 @@ def _cmd_experiment_run(args) -> int:
     return 0
 
 
+def _cmd_experiment_digests(args) -> int:
+    import json
+
+    from drake_clutter.experiments.digests import compare_digests, plan_digests, read_digests
+
+    if args.compare:
+        if args.tiers:
+            raise InputError("<command line>", "--compare", "takes no tier names")
+        differ, text = compare_digests(*(read_digests(p) for p in args.compare))
+        print(text, end="")
+        return 1 if differ else 0
+    out = open(args.out, "w", encoding="utf-8") if args.out else sys.stdout
+    try:
+        for record in plan_digests(args.tiers or ["smoke"]):
+            print(json.dumps(record), file=out, flush=True)
+    finally:
+        if args.out:
+            out.close()
+    return 0
+
+
+def _cmd_stores_compare(args) -> int:
+    from drake_clutter.experiments.compare import compare_table, load_stores, shared
+
+    print(compare_table(shared(load_stores(args.stores)), args.against), end="")
+    return 0
+
+
 def check_output_folder(path: str | Path, flag: str) -> None:
     """Raises an InputError naming ``flag`` unless ``path`` is, or can be made, a writable
     folder: not a file, not under a file, its nearest existing folder writable."""
@@ -346,6 +376,22 @@ def build_parser() -> argparse.ArgumentParser:
                      "evaluation defaults instead of the stored ones")
     rej.add_argument("--no-progress", action="store_true", help="no progress bar")
     rej.set_defaults(func=_cmd_experiment_rejudge)
+    dig = exp_cmds.add_parser("digests", help="plan tiers and print each plan's digest, or "
+                              "compare two digest files (a refactor must not change a plan)")
+    dig.add_argument("tiers", nargs="*", help="tier names and/or 'bench' (default: smoke)")
+    dig.add_argument("--out", help="JSON-lines file to write (default: standard output)")
+    dig.add_argument("--compare", nargs=2, metavar=("OLD", "NEW"),
+                     help="two digest files: the plans that differ, seconds new over old")
+    dig.set_defaults(func=_cmd_experiment_digests)
+    stores = groups.add_parser("stores", help="read experiment stores side by side")
+    stores_cmds = stores.add_subparsers(dest="command", required=True,
+                                        parser_class=OneLineParser)
+    cmp = stores_cmds.add_parser("compare", help="Table III and P(success) per "
+                                 "configuration/planner on the initializations all share")
+    cmp.add_argument("stores", nargs="+", help="experiment stores (SQLite)")
+    cmp.add_argument("--against", required=True, metavar="CONFIGURATION/PLANNER",
+                     help="the reference row, e.g. defaults/baseline")
+    cmp.set_defaults(func=_cmd_stores_compare)
     rep = groups.add_parser("report", help="Tables III/IV and Fig. 9 from a store")
     rep.add_argument("db", help="an experiment store (SQLite)")
     rep.add_argument("--out", required=True, help="directory for the Markdown, CSV and PNGs")

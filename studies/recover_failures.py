@@ -18,6 +18,8 @@ With ``--judge``, every failed angle is then run as the tier runs a push unit
 (`specs.run_unit`: the push planner, then the robust judge, K = 8): printed per angle, what the
 push planner returned (the start it took, or the failure) and its robust P(success); the
 baseline's P(success) there is 0 (no plan).
+
+Its dated results: docs/log/push_planner.md.
 """
 
 from __future__ import annotations

@@ -14,6 +14,8 @@ mean; and the paired compared - baseline P(success) per initialization with its 
 bootstrap 95 % interval, overall and per environment, with better / same / worse counts by
 Sec. VI-A's grade; then the same difference per environment and clutter level. The paper's
 rows are printed beside them.
+
+Its dated results: docs/log/evaluation.md.
 """
 
 from __future__ import annotations

@@ -113,6 +113,19 @@ def test_nothing_imports_the_command_line_or_the_apps_or_edits_sys_path(path):
         assert not module.startswith("test_"), f"{path.relative_to(REPO)}:{line}: imports a test"
 
 
+@pytest.mark.parametrize("path", _outside_files(), ids=lambda p: str(p.relative_to(REPO)))
+def test_no_script_or_test_loads_a_file_by_path_or_imports_a_private_name(path):
+    text = path.read_text(encoding="utf-8")
+    if path.name != "test_layout.py":
+        for loader in ("spec_from_file_location", "runpy", "SourceFileLoader"):
+            assert loader not in text, f"{path.relative_to(REPO)}: loads a file by path " \
+                "(a tool belongs in the package or the CLI)"
+    for line, module in _imports(text, str(path)):
+        if module.startswith("drake_clutter.") and path.relative_to(REPO).parts[0] != "tests":
+            private = [p for p in module.split(".")[1:] if p.startswith("_") and p != "__init__"]
+            assert not private, f"{path.relative_to(REPO)}:{line}: imports private {module}"
+
+
 def _module_name(path: Path) -> str:
     parts = list(path.relative_to(REPO).with_suffix("").parts)
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
@@ -182,3 +195,14 @@ def test_the_rule_catches_imports_against_the_direction():
                        "evaluation")
     assert _violations("from drake_clutter.cli import main\n", "experiments")
     assert not _violations("from drake_clutter.evaluation.judge import evaluate\n", "viz")
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "studies").glob("*.py")),
+                         ids=lambda p: p.name)
+def test_every_study_names_the_log_that_holds_its_dated_results(path):
+    doc = ast.get_docstring(ast.parse(path.read_text(encoding="utf-8"))) or ""
+    logs = [word.strip(".,") for word in doc.split() if word.startswith("docs/log/")]
+    assert logs, f"studies/{path.name}: its docstring names no docs/log/ file"
+    for log in logs:
+        assert path.name in (REPO / log).read_text(encoding="utf-8"), \
+            f"studies/{path.name}: {log} does not mention it"

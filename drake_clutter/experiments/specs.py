@@ -243,7 +243,7 @@ def check_scenes(spec: ExperimentSpec, file="<spec>") -> None:
                 continue
             _, kind, n, seed = source
             try:
-                _build_scene(source, config)
+                build_scene(source, config)
             except (GenerationError, ValueError) as exc:
                 raise SpecError(file, fields.get(source, "scene_set"),
                                 f"{kind} scene with {n} boxes, seed {seed}: {exc}") from None
@@ -278,7 +278,7 @@ def expand(spec: ExperimentSpec, file="<spec>") -> list[WorkUnit]:
 # ----------------------------------------------------------------------------- the worker
 
 
-def _build_scene(source, config: Config):
+def build_scene(source, config: Config):
     from drake_clutter.scene.generators import generate_scene
     from drake_clutter.scene.scenes import load_shipped_scene
 
@@ -324,7 +324,7 @@ def run_unit(unit: dict) -> dict:
     result = {"alpha": None, "plan": None, "timings": {}, "error": ""}
     try:
         config = load_config(None, list(unit["overrides"]))
-        scene = _build_scene(unit["source"], config)
+        scene = build_scene(unit["source"], config)
         tic = time.perf_counter()
         candidate = plan_one_angle(scene, config, unit["planner"], int(unit["angle"]))
         plan_seconds = time.perf_counter() - tic

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The gate of the judge in phi: does it order stored plans as the robust judge does?
 
-    python benchmarks/phi_judge_gate.py --db RUN.db [--db RUN2.db ...]
+    python studies/phi_judge_gate.py --db RUN.db [--db RUN2.db ...]
         [--configurations NAME ...] [--planners baseline] [--set FIELD=VALUE ...]
         [--members 8] [--jobs 2] [--cache FILE.jsonl] [--examples 5] [--read K ...]
         [--cached-only]
@@ -24,6 +24,8 @@ Printed:
 ``--cache`` keeps each initialization's verdicts (one JSON line), so a stopped run resumes;
 ``--cached-only`` reads the cached initializations alone and judges nothing; ``--read`` also
 prints the pair agreement over the first K members of each verdict (K <= ``--members``).
+
+Its dated results: docs/log/push_planner.md.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Does a plan that jams a box fail in the judge? Two jam predictors against the judge.
 
-    python benchmarks/press_vs_judge.py --db RUN.db [--db RUN2.db ...]
+    python studies/press_vs_judge.py --db RUN.db [--db RUN2.db ...]
         [--configurations NAME ...] [--measure press|jam] [--set FIELD=VALUE ...]
         [--variant capsules|evaluation] [--normal-z 0.5] [--substeps 4] [--seed 0]
 
@@ -23,6 +23,8 @@ Printed, over all plans and per planner: the plans that press (deeper than each 
 THRESHOLDS_MM) and those that do not, with their mean robust P(kinematic failure) and
 P(success) and 95 % bootstrap intervals (``--seed``); and the area under the ROC curve of the
 depth against the nominal replay's kinematic failure (0.5: a coin).
+
+Its dated results: docs/log/decisions.md, docs/log/phi.md, docs/log/physics_planner.md.
 """
 
 from __future__ import annotations

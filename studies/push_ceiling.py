@@ -2,7 +2,7 @@
 """The ceiling of the push path family: the best of N sampled paths per initialization, picked
 by the robust judge and read on fresh seeds, against the straight lines' own ceiling.
 
-    python benchmarks/push_ceiling.py --db CANDIDATES.db [--samples 3] [--seed 0]
+    python studies/push_ceiling.py --db CANDIDATES.db [--samples 3] [--seed 0]
         [--fresh-seed 1] [--replays 8] [--jobs 2] [--cache FILE.jsonl] [--set FIELD=VALUE]
         [--angles 4 7] [--phi-members K [--phi-set FIELD=VALUE]]
 
@@ -28,6 +28,8 @@ plan is also judged in phi (`phi_judge.judge_paths`, K members, ``--phi-set`` on
 (``phi_straight``) and its best of all (``phi_family``), what a search scored by the judge in
 phi over the same samples would return. ``--cache`` keeps one JSON line
 per initialization, so a stopped run resumes; ``--angles`` keeps those angles' initializations.
+
+Its dated results: docs/log/push_planner.md.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How smooth is a phi stage's objective? Why its line searches fail.
 
-    python benchmarks/phi_sensitivity.py [SCENE] [--generated KIND N SEED] [--variant V]
+    python studies/phi_sensitivity.py [SCENE] [--generated KIND N SEED] [--variant V]
         [--directions D] [--seed S] [--set FIELD=VALUE ...]
 
 On the pre-processed baseline path of one scene (a shipped scene at its provenance angle, by
@@ -19,6 +19,8 @@ stage's problem (`stage.stage_problem`; ``--variant`` capsules = the full stage)
    2^0 .. 2^-14, closed loop (K) and open loop, with the trust region as the stage uses it.
    Where the actual changes are much larger than predicted and of either sign, the line search
    can only win (or lose) by chance.
+
+Its dated results: docs/log/decisions.md, docs/log/phi.md, docs/log/physics_planner.md.
 """
 
 from __future__ import annotations

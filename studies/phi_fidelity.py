@@ -1,6 +1,6 @@
 """How well phi predicts the judge: phi and Bullet on the same plans.
 
-    python benchmarks/bench_fidelity.py [--angles K] [--generated N --clutter M --seed S]
+    python studies/phi_fidelity.py [--angles K] [--generated N --clutter M --seed S]
         [--set FIELD=VALUE ...] [--variant "FIELD=VALUE,FIELD=VALUE" ...] [--arm VARIANT]
         [--verbose]
 
@@ -28,6 +28,8 @@ Bullet's kinematic failure or not, and the median peaks of both groups; and the 
 measure read in phi: the peak knot-mean force of a box on the shelf beyond its weight
 (`Phi.shelf_forces`), over each of SHELF_THRESHOLDS_N. (A finger on the board
 is c_static's matter: phi's arm passes through the shelf.)
+
+Its dated results: docs/log/phi.md.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How the push planner's answer grows with the paths its search judges: a curve, not a point.
 
-    python benchmarks/search_curve.py --db STORE.db [--configuration margin] [--stride 2]
+    python studies/search_curve.py --db STORE.db [--configuration margin] [--stride 2]
         [--rounds 5] [--population 20] [--elite 4] [--jobs 2] [--cache FILE.jsonl]
         [--set FIELD=VALUE ...]
 
@@ -20,6 +20,8 @@ Printed: per round, the mean paths judged in phi, the mean robust P(success), th
 difference against today's search and against the baseline (bootstrap 95 % intervals over the
 initializations), and how often the returned path is a bent one with robust P(success) >= 0.5.
 ``--cache`` keeps one JSON line per initialization, so a stopped run resumes.
+
+Its dated results: docs/log/push_planner.md.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How sensitive is the Bullet judge (Sec. III) to the last digits of a plan?
 
-    python benchmarks/judge_sensitivity.py [--db RUN.db [--configurations NAME ...]]
+    python studies/judge_sensitivity.py [--db RUN.db [--configurations NAME ...]]
         [--scenes NAME ...] [--angles I ...] [--eps E ...] [--replicas R] [--seed S]
         [--set FIELD=VALUE ...]
 
@@ -15,6 +15,8 @@ experiment unit plans it). With ``--db``: every stored plan of a shipped scene i
 experiment store (physics and baseline), and for each physics row that has a baseline row of
 the same initialization, how often the replicas' verdict (better / same / worse) matches the
 stored one - i.e. whether a comparison of two single plans is a measurement or a draw.
+
+Its dated results: docs/log/decisions.md, docs/log/evaluation.md, docs/log/physics_planner.md.
 """
 
 from __future__ import annotations

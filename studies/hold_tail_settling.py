@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """How long must phi's hold tail be for the boxes to have landed? (Table II's "all" times.)
 
-    python benchmarks/hold_tail_settling.py [SCENE ...] [--angles 4 5 ...] [--knots N]
+    python studies/hold_tail_settling.py [SCENE ...] [--angles 4 5 ...] [--knots N]
         [--set FIELD=VALUE ...]
 
 For each shipped scene (default: the behaviours tier's four) and approach angle (default the
@@ -17,6 +17,8 @@ only after the configured tail. A summary line gives the quantiles of the settli
 shorter than most of them prices boxes mid-fall.
 
 Exit status 2 with one line on bad input (an unknown scene, an angle out of range).
+
+Its dated results: docs/log/decisions.md, docs/log/physics_planner.md.
 """
 
 from __future__ import annotations

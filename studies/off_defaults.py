@@ -4,10 +4,12 @@ and ``solvers`` that the baseline, the push planner and the physics planner neve
 they plan with the default configuration (coverage.py; ``dynamics.workers=0`` so the judge in
 phi runs in this process). What is left is code behind settings off by default, and error paths.
 
-    python benchmarks/off_defaults.py                  # default_fridge and bookshelf_n10_s0
-    python benchmarks/off_defaults.py --angles 3 7 10 --show
+    python studies/off_defaults.py                  # default_fridge and bookshelf_n10_s0
+    python studies/off_defaults.py --angles 3 7 10 --show
 
 Prints the statements, those never run and their share, per module with ``--show``.
+
+Its dated results: docs/log/layout.md.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ def main(argv=None) -> int:
     try:
         import coverage
     except ImportError:
-        print("benchmarks/off_defaults.py: coverage is not installed (pip install coverage)",
+        print("studies/off_defaults.py: coverage is not installed (pip install coverage)",
               file=sys.stderr)
         return 2
     cov = coverage.Coverage(source=["drake_clutter.planners", "drake_clutter.phi",

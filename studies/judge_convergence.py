@@ -2,10 +2,10 @@
 """Has the Bullet judge (Sec. III) converged? Its verdicts and time per plan against its step and
 solver iterations, and against its kinematic-failure thresholds.
 
-    python benchmarks/judge_convergence.py --db RUN.db [--db RUN2.db ...] [--rates 240 480 960]
+    python studies/judge_convergence.py --db RUN.db [--db RUN2.db ...] [--rates 240 480 960]
         [--iterations 10 50 150] [--thresholds RATE ITERATIONS | --no-thresholds] [--workers 2]
         [--out results.json] [--set FIELD=VALUE ...]
-    python benchmarks/judge_convergence.py --from results.json   # print again, no replays
+    python studies/judge_convergence.py --from results.json   # print again, no replays
 
 Every distinct stored plan of the stores (both planners, every configuration; a plan stored
 twice is replayed once; generated scenes are rebuilt from their names) is replayed at every
@@ -18,6 +18,8 @@ again with each kinematic-failure threshold (``max_static_force``: the arm's and
 into the shelf; ``max_tracking_error``; ``static_penetration``) at half and at one and a half
 times its value: how many classes move. ``--out`` keeps every verdict (class, reason, seconds)
 as JSON; ``--from`` prints such a file again.
+
+Its dated results: docs/log/decisions.md, docs/log/evaluation.md.
 """
 
 from __future__ import annotations

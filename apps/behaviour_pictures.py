@@ -24,6 +24,7 @@ from pathlib import Path
 from drake_clutter.common.arguments import OneLineParser
 from drake_clutter.common.config import Config, config_from_data, load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
+from drake_clutter.planners.registry import get_planner
 
 
 def picture(row_pair: tuple[dict, dict], config: Config, out: Path, frames: int) -> str:
@@ -42,8 +43,8 @@ def picture(row_pair: tuple[dict, dict], config: Config, out: Path, frames: int)
         (outcome,) = evaluate_candidates(scene, [candidate], config.evaluation,
                                          record_fps=config.viz.fps)
         views.append(PlanView(stored["planner"], candidate, outcome))
-    chosen = (row["plan"].get("details") or {}).get("chosen", "")
-    title = (f"{scene.name}, alpha {row['alpha']:+.3f}: {row['planner']} path {chosen} "
+    label = get_planner(row["planner"]).record(row["plan"].get("details") or {}).label
+    title = (f"{scene.name}, alpha {row['alpha']:+.3f}: {row['planner']} {label} "
              f"(robust P(success) {row['p_success']:.2f} against {base['p_success']:.2f})")
     png = frame_strip(scene, views, config, out / f"{scene.name}.png", frames, title)
     return f"wrote {png}: {title}"

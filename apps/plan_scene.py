@@ -43,7 +43,13 @@ from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS
 from drake_clutter.phi.mujoco_model import check_scene
-from drake_clutter.planners.registry import COMPARED, planner_names, run_planners
+from drake_clutter.planners.registry import (
+    COMPARED,
+    PhysicsPlanner,
+    get_planner,
+    planner_names,
+    run_planners,
+)
 from drake_clutter.planners.selection import selected_index
 from drake_clutter.robot.pr2 import VARIANTS
 from drake_clutter.scene.scenes import DEFAULT_SCENE, resolve_scene
@@ -100,7 +106,7 @@ def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS,
 def selections(plans: dict, config) -> dict[str, int | None]:
     """Per planner, the angle index of the candidate it would execute, chosen without the
     judge (`planners.selection.selected_index`), or None."""
-    return {name: selected_index(candidates, config.baseline)
+    return {name: selected_index(candidates, config)
             for name, (candidates, _) in plans.items()}
 
 
@@ -154,14 +160,16 @@ def choose_angle(plans: dict) -> tuple[int, list[str]] | None:
 
 
 def write_cost_curves(plans: dict, directory: Path, stem: str) -> list[Path]:
-    """A PNG of cost curves per plan with an iLQR history (Sec. V's, planner "physics"):
+    """A PNG of cost curves per plan whose planner's record has an iLQR history (Sec. V's):
     ``<directory>/<stem>_costs_<planner>_<alpha>.png``."""
     from drake_clutter.viz.cost_curves import plot_cost_curves
 
     written = []
     for candidate in (c for candidates, _ in plans.values() for c in candidates):
         path = directory / f"{stem}_costs_{candidate.planner}_{candidate.alpha:+.3f}.png"
-        if plot_cost_curves(candidate, path) is not None:
+        stages = get_planner(candidate.planner).record(candidate.details).histories()
+        title = f"{candidate.planner} plan, alpha = {candidate.alpha:+.3f} rad"
+        if plot_cost_curves(stages, path, title) is not None:
             written.append(path)
     return written
 
@@ -255,7 +263,7 @@ def _check(args) -> None:
     if args.iterations is not None and args.iterations < 0:
         raise InputError("<command line>", "--iterations",
                          f"must be at least 0, got {args.iterations}")
-    if args.iterations is not None and args.planner != "physics":
+    if args.iterations is not None and args.planner != PhysicsPlanner.name:
         raise InputError("<command line>", "--iterations",
                          "sets Sec. V's iterations through phi: give it with --planner physics")
     for flag, value in (("--html", args.html), ("--costs", args.costs),

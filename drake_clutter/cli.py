@@ -179,7 +179,7 @@ def _cmd_plan(args) -> int:
     # The candidate each planner would execute, ranked without the judge; its index among
     # the file's candidates.
     offsets = {name: sum(len(plans[n]) for n in names[:names.index(name)]) for name in names}
-    chosen = {name: selected_index(plans[name], config.baseline) for name in names}
+    chosen = {name: selected_index(plans[name], config) for name in names}
     selected = {name: None if i is None else offsets[name] + i for name, i in chosen.items()}
     save_plan(args.out, scene.name, candidates,
               extra={"planner": args.planner, "selected": selected,

@@ -66,13 +66,14 @@ def plan_digests(tiers: Sequence[str]) -> Iterator[dict]:
         for tier, source, angle, overrides, planners in initializations(which):
             config = load_config(None, overrides)
             scene = build_scene(source, config)
-            start = None
+            planned: dict[str, list] = {}
             for name in planners:
+                planner = get_planner(name)
                 tic = time.perf_counter()
-                (candidate,) = get_planner(name).plan(scene, config, [angle], start)
+                (candidate,) = planner.plan(scene, config, [angle],
+                                            planned.get(planner.starts_from))
                 seconds = time.perf_counter() - tic
-                if name == "baseline":
-                    start = [candidate]
+                planned[name] = [candidate]
                 q, record = digest(candidate)
                 yield {"tier": tier, "scene": scene.name, "angle": angle, "planner": name,
                        "q": q, "details": record, "seconds": round(seconds, 3)}

@@ -1,6 +1,7 @@
-"""Paired statistics of an experiment store's rows: each physics plan against the baseline
-plan of its initialization (Sec. VI-A's grade over many initializations), and physics
-configurations against one another on the same initializations.
+"""Paired statistics of an experiment store's rows: each compared planner's plan (any planner
+but the baseline) against the baseline plan of its initialization (Sec. VI-A's grade over many
+initializations), and a compared planner's configurations against one another on the same
+initializations. Nothing here reads a plan's record but through its planner (`bent`).
 
 * Per row: P(success) and expected grade class (the robust judge's over its replays, else the
   one outcome's), its behaviour grade (class, then boxes tipped or fallen).
@@ -18,6 +19,7 @@ from scipy.stats import binomtest, wilcoxon
 
 from drake_clutter.common.config import ReportConfig
 from drake_clutter.evaluation.outcome import GRADE_CLASSES, behaviour_grade
+from drake_clutter.planners.registry import BASELINE, get_planner
 
 SHARE_ROUNDING = 1e-12  # a scene's summed P(success) differences this small are zero (sums of k/K)
 
@@ -52,14 +54,14 @@ def row_kinds(row: dict) -> list[str]:
     return list(robust["kinds"]) if robust else [row["kind"]]
 
 
-def held_out_gain(physics_kinds: list[str], baseline_kinds: list[str]) -> float | None:
+def held_out_gain(compared_kinds: list[str], baseline_kinds: list[str]) -> float | None:
     """What choosing between two plans by half of their common replays gains on the other
     half: the plan with the higher success rate on the even replays (ties to the baseline)
     read on the odd ones, minus the baseline there, averaged with the reverse. Unlike the
     better plan's P(success) on all replays, this is not biased up by picking on the same
     noise it reads. None unless both plans have the same K >= 2 replays (a missing plan fails
     in every replay)."""
-    return held_out_choice_gain([baseline_kinds, physics_kinds])
+    return held_out_choice_gain([baseline_kinds, compared_kinds])
 
 
 def held_out_choice_gain(candidates_kinds: list[list[str]]) -> float | None:
@@ -90,26 +92,27 @@ def row_grade(row: dict) -> tuple[int, int]:
                                             for b in boxes))
 
 
-def verdict(physics: tuple[int, int], baseline: tuple[int, int]) -> str:
-    """'better', 'same' or 'worse': the physics plan's grade against the baseline's."""
-    return "better" if physics < baseline else "same" if physics == baseline else "worse"
+def verdict(compared: tuple[int, int], baseline: tuple[int, int]) -> str:
+    """'better', 'same' or 'worse': the compared plan's grade against the baseline's."""
+    return "better" if compared < baseline else "same" if compared == baseline else "worse"
 
 
 def paired_rows(rows: list[dict]) -> list[dict]:
-    """One row per unit of a planner other than the baseline that has a baseline unit of the
-    same scene, angle and configuration: both kinds, both grades and the verdict (better /
-    same / worse). The "physics" fields hold the other planner's; its configuration is named
-    "<configuration>/<planner>" for planners other than "physics"."""
+    """One row per unit of a planner other than the baseline (the compared planner) that has a
+    baseline unit of the same scene, angle and configuration: both kinds, both grades and the
+    verdict (better / same / worse); the comparison is named "<configuration>/<planner>"."""
     base = {(r["config_name"], r["scene"], r["angle"]): r for r in rows
-            if r["planner"] == "baseline"}
+            if r["planner"] == BASELINE}
     return [_pair(comparison_name(r), r, base[(r["config_name"], r["scene"], r["angle"])])
-            for r in rows if r["planner"] != "baseline"
+            for r in rows if r["planner"] != BASELINE
             and (r["config_name"], r["scene"], r["angle"]) in base]
 
 
-def _bent(row: dict) -> bool:
-    """Whether a stored push plan's chosen path is bent (a family member, '<start>/...')."""
-    return "/" in str(((row["plan"] or {}).get("details") or {}).get("chosen", ""))
+def bent(row: dict) -> bool:
+    """Whether a stored row's plan is a bent member of its planner's path family (the
+    planner's own record says; False for a row without a plan)."""
+    plan = row.get("plan") or {}
+    return bool(plan) and get_planner(row["planner"]).record(plan.get("details") or {}).bent
 
 
 def widest_wins(rows: list[dict], planner: str) -> dict[str, tuple[dict, dict]]:
@@ -120,7 +123,7 @@ def widest_wins(rows: list[dict], planner: str) -> dict[str, tuple[dict, dict]]:
     index = {(r["scene"], r["angle"], r["config_hash"], r["planner"]): r for r in rows}
     pairs: dict[str, list[tuple[dict, dict]]] = {}
     for row in rows:
-        base = index.get((row["scene"], row["angle"], row["config_hash"], "baseline"))
+        base = index.get((row["scene"], row["angle"], row["config_hash"], BASELINE))
         if row["planner"] != planner or base is None or not row["plan"]:
             continue
         if row["p_success"] is None or base["p_success"] is None:
@@ -129,28 +132,27 @@ def widest_wins(rows: list[dict], planner: str) -> dict[str, tuple[dict, dict]]:
 
     def key(pair: tuple[dict, dict]) -> tuple:
         base, row = pair
-        return (row["p_success"] - base["p_success"], row["p_success"], _bent(row),
+        return (row["p_success"] - base["p_success"], row["p_success"], bent(row),
                 -row["angle"])
 
     return {scene: max(found, key=key) for scene, found in pairs.items()}
 
 
 def comparison_name(row: dict) -> str:
-    """The name a stored row's configuration is compared under: its own for the physics
-    planner, "<configuration>/<planner>" for another."""
-    return row["config_name"] if row["planner"] == "physics" else (
-        f"{row['config_name']}/{row['planner']}")
+    """The name a stored row is compared under: "<configuration>/<planner>"."""
+    return f"{row['config_name']}/{row['planner']}"
 
 
 def _pair(configuration: str, r: dict, b: dict) -> dict:
-    """Row r ("physics" fields) against row b ("baseline" fields) of the same initialization."""
+    """Row r ("compared" fields) against row b ("baseline" fields) of the same
+    initialization."""
     gp, gb = row_grade(r), row_grade(b)
     return {"configuration": configuration, "scene": r["scene"], "angle": r["angle"],
-            "baseline": b["kind"], "baseline_grade": gb, "physics": r["kind"],
-            "physics_grade": gp, "verdict": verdict(gp, gb),
-            "baseline_p_success": row_p_success(b), "physics_p_success": row_p_success(r),
+            "baseline": b["kind"], "baseline_grade": gb, "compared": r["kind"],
+            "compared_grade": gp, "verdict": verdict(gp, gb),
+            "baseline_p_success": row_p_success(b), "compared_p_success": row_p_success(r),
             "baseline_expected_grade": row_expected_grade(b),
-            "physics_expected_grade": row_expected_grade(r),
+            "compared_expected_grade": row_expected_grade(r),
             "held_out_gain": held_out_gain(row_kinds(r), row_kinds(b))}
 
 
@@ -187,8 +189,9 @@ def signed_rank_p(differences) -> float | None:
 
 
 def _mean_difference(pairs: list[dict], key: str, config: ReportConfig) -> dict:
-    """Mean of physics minus baseline in ``key`` over the pairs, its interval and p-value."""
-    diffs = [p[f"physics_{key}"] - p[f"baseline_{key}"] for p in pairs]
+    """Mean of the compared planner minus the baseline in ``key`` over the pairs, its
+    interval and p-value."""
+    diffs = [p[f"compared_{key}"] - p[f"baseline_{key}"] for p in pairs]
     low, high = bootstrap_interval(diffs, config)
     return {f"{key}_diff": float(np.mean(diffs)), f"{key}_ci_low": low,
             f"{key}_ci_high": high, f"{key}_wilcoxon_p": signed_rank_p(diffs)}
@@ -196,11 +199,11 @@ def _mean_difference(pairs: list[dict], key: str, config: ReportConfig) -> dict:
 
 def _selection_ceiling(pairs: list[dict], config: ReportConfig) -> dict:
     """What a perfect choice between the two plans of each initialization would gain: the mean
-    of max(physics, baseline) minus baseline P(success), with its bootstrap interval. The
+    of max(compared, baseline) minus baseline P(success), with its bootstrap interval. The
     bound on any selector that executes one of the two plans (a judge-free one included);
     biased up, as the max of two estimates is. Beside it the held-out ceiling
     (`held_out_gain`, mean and interval over the pairs that have one; None where none does)."""
-    gains = [max(p["physics_p_success"], p["baseline_p_success"]) - p["baseline_p_success"]
+    gains = [max(p["compared_p_success"], p["baseline_p_success"]) - p["baseline_p_success"]
              for p in pairs]
     low, high = bootstrap_interval(gains, config)
     return {"p_success_ceiling": float(np.mean(gains)), "p_success_ceiling_ci_low": low,
@@ -223,7 +226,7 @@ def held_out_summary(gains: list[float | None], config: ReportConfig) -> dict:
 def paired_comparison(rows: list[dict], settings: ReportConfig | None = None) -> list[dict]:
     """Per configuration: pairs, better / same / worse, kinematic failures of each planner,
     the two-sided sign test's p-value on better against worse (None when all tie), and the
-    mean difference physics minus baseline per initialization in P(success) and in expected
+    mean difference compared planner minus baseline per initialization in P(success) and in expected
     grade class, each with its bootstrap interval (``settings``) and Wilcoxon signed-rank
     p-value; and the selection ceiling (`_selection_ceiling`)."""
     return _summaries(paired_rows(rows), settings or ReportConfig())
@@ -239,8 +242,8 @@ def _summaries(pairs_in: list[dict], settings: ReportConfig) -> list[dict]:
         better, worse = verdicts.count("better"), verdicts.count("worse")
         out.append({"configuration": config, "pairs": len(pairs), "better": better,
                     "same": verdicts.count("same"), "worse": worse,
-                    "physics_kinematic_failures": sum(p["physics"] == "kinematic_failure"
-                                                      for p in pairs),
+                    "compared_kinematic_failures": sum(p["compared"] == "kinematic_failure"
+                                                       for p in pairs),
                     "baseline_kinematic_failures": sum(p["baseline"] == "kinematic_failure"
                                                        for p in pairs),
                     "sign_test_p": (binomtest(better, better + worse).pvalue
@@ -252,21 +255,23 @@ def _summaries(pairs_in: list[dict], settings: ReportConfig) -> list[dict]:
 
 
 def configuration_rows(rows: list[dict], reference: str) -> list[dict]:
-    """One row per physics unit of another configuration that has a physics unit of the
-    ``reference`` configuration at the same scene and angle, shaped as `paired_rows` (the
-    other configuration in the "physics" fields, the reference in the "baseline" ones)."""
-    ref = {(r["scene"], r["angle"]): r for r in rows
-           if r["planner"] == "physics" and r["config_name"] == reference}
-    return [_pair(f"{r['config_name']} vs {reference}", r, ref[(r["scene"], r["angle"])])
-            for r in rows if r["planner"] == "physics" and r["config_name"] != reference
-            and (r["scene"], r["angle"]) in ref]
+    """One row per unit of a compared planner (not the baseline) under another configuration
+    that has a unit of the same planner under the ``reference`` configuration at the same scene
+    and angle, shaped as `paired_rows` (the other configuration in the "compared" fields, the
+    reference in the "baseline" ones), named "<configuration>/<planner> vs <reference>"."""
+    ref = {(r["planner"], r["scene"], r["angle"]): r for r in rows
+           if r["planner"] != BASELINE and r["config_name"] == reference}
+    return [_pair(f"{comparison_name(r)} vs {reference}", r,
+                  ref[(r["planner"], r["scene"], r["angle"])])
+            for r in rows if r["planner"] != BASELINE and r["config_name"] != reference
+            and (r["planner"], r["scene"], r["angle"]) in ref]
 
 
 def configuration_comparison(rows: list[dict], reference: str,
                              settings: ReportConfig | None = None) -> list[dict]:
-    """`paired_comparison`'s figures for every other physics configuration against the
-    ``reference`` physics configuration on the same initializations (other minus reference;
-    "baseline" fields hold the reference's)."""
+    """`paired_comparison`'s figures for every other configuration of a compared planner
+    against the same planner's ``reference`` configuration on the same initializations (other
+    minus reference; "baseline" fields hold the reference's)."""
     return _summaries(configuration_rows(rows, reference), settings or ReportConfig())
 
 
@@ -276,7 +281,8 @@ def _p(value: float | None) -> str:
 
 def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> str:
     """The paired comparison as Markdown: better / same / worse with the sign test, and the
-    mean differences (physics minus baseline) with their intervals and Wilcoxon p-values."""
+    mean differences (the compared planner minus the baseline) with their intervals and
+    Wilcoxon p-values."""
     level = f"{100 * (config or ReportConfig()).confidence:g} %"
     lines = ["| configuration | pairs | planner better | same | worse | kinematic failures "
              f"planner / baseline | sign test p | P(success) difference [{level} CI] | "
@@ -286,7 +292,7 @@ def markdown_paired(table: list[dict], config: ReportConfig | None = None) -> st
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in table:
         lines.append(f"| {r['configuration']} | {r['pairs']} | {r['better']} | {r['same']} | "
-                     f"{r['worse']} | {r['physics_kinematic_failures']} / "
+                     f"{r['worse']} | {r['compared_kinematic_failures']} / "
                      f"{r['baseline_kinematic_failures']} | {_p(r['sign_test_p'])} | "
                      f"{r['p_success_diff']:+.3f} [{r['p_success_ci_low']:+.3f}, "
                      f"{r['p_success_ci_high']:+.3f}] | {_p(r['p_success_wilcoxon_p'])} | "
@@ -309,7 +315,7 @@ def held_out_cell(r: dict) -> str:
 def scene_contributions(pairs: list[dict], top: int) -> list[dict]:
     """Where a mean P(success) difference lies: per configuration of ``pairs`` (`paired_rows`
     or `configuration_rows`), each scene's share of the configuration's mean difference
-    (physics minus baseline: the scene's summed per-initialization differences over all the
+    (compared minus baseline: the scene's summed per-initialization differences over all the
     configuration's pairs, so a configuration's shares sum to its mean), with the kinds of
     the pairs that differ. Only scenes whose share is non-zero; the ``top`` largest in
     magnitude per configuration, largest first."""
@@ -327,13 +333,13 @@ def scene_contributions(pairs: list[dict], top: int) -> list[dict]:
 
 def _contribution(config: str, scene: str, pairs: list[dict], total: int) -> dict:
     """One scene's row of `scene_contributions` (``total``: the configuration's pairs)."""
-    differing = [p for p in pairs if p["physics_p_success"] != p["baseline_p_success"]]
-    share = sum(p["physics_p_success"] - p["baseline_p_success"] for p in pairs) / total
+    differing = [p for p in pairs if p["compared_p_success"] != p["baseline_p_success"]]
+    share = sum(p["compared_p_success"] - p["baseline_p_success"] for p in pairs) / total
     return {"configuration": config, "scene": scene, "pairs": len(pairs),
             "differing": len(differing), "p_success_share": float(share),
             "changes": "; ".join(f"angle {p['angle']}: {p['baseline']} "
-                                 f"{p['baseline_p_success']:.2f} -> {p['physics']} "
-                                 f"{p['physics_p_success']:.2f}" for p in differing)}
+                                 f"{p['baseline_p_success']:.2f} -> {p['compared']} "
+                                 f"{p['compared_p_success']:.2f}" for p in differing)}
 
 
 def markdown_contributions(table: list[dict]) -> str:

@@ -1,6 +1,6 @@
-"""What the stored plans look like beside their grades: the physics planner's phi stages (did
-they accept iterations, how good was the model, which path became the plan) and the plans'
-smoothness; shared row helpers of the report."""
+"""What the stored plans look like beside their grades: the plans' smoothness; shared row
+helpers of the report. (A planner's own statistics, such as the physics planner's phi stages,
+are its own: `registry.Planner.report_section`.)"""
 
 from __future__ import annotations
 
@@ -23,52 +23,6 @@ def groups(rows: list[dict]) -> dict[tuple[str, str], list[dict]]:
     for row in rows:
         out.setdefault((row["config_name"], row["planner"]), []).append(row)
     return out
-
-
-PHI_STAGES = ("sphere", "full")  # the physics plan's stages through phi (its details' names)
-SELECTIONS = ("post", "pre", "baseline", "search")  # the paths the physics planner chooses among
-
-
-def stage_statistics(rows: list[dict]) -> list[dict]:
-    """Per configuration and phi stage of the physics rows' plans: the stages run, those that
-    accepted at least one iLQR iteration (count and %), the accepted steps and the quartiles of
-    their actual / predicted decrease (the model's at the accepted step size), and how often
-    each path was the plan (`SELECTIONS`; stages without a choice are not counted)."""
-    out = []
-    for (config_name, planner), group in groups(rows).items():
-        if planner != "physics":
-            continue
-        details = [r["plan"].get("details", {}) for r in group if r.get("plan")]
-        chosen = [d.get("select", {}).get("chosen") for d in details]
-        for stage in PHI_STAGES:
-            records = [d["stages"][stage] for d in details if stage in d.get("stages", {})]
-            ratios = [e["actual"] / e["predicted"] for rec in records for e in rec["log"]
-                      if e.get("alpha", 0.0) > 0 and e.get("predicted", 0.0) > 0]
-            accepting = sum(rec["iterations"] > 0 for rec in records)
-            q = (np.percentile(ratios, [25, 50, 75]) if ratios else [None] * 3)
-            out.append({"configuration": config_name, "stage": stage, "stages": len(records),
-                        "accepting": accepting, "accepting_pct": percent(accepting, len(records)),
-                        "accepted_steps": len(ratios), "ratio_q25": q[0], "ratio_median": q[1],
-                        "ratio_q75": q[2],
-                        **{f"chosen_{n}": chosen.count(n) for n in SELECTIONS}})
-    return out
-
-
-def markdown_stages(table: list[dict]) -> str:
-    """`stage_statistics` as Markdown."""
-    lines = ["| configuration | stage | stages | accepting >= 1 iteration | accepted steps | "
-             "actual / predicted: median [quartiles] | plan chosen: post / pre / baseline / "
-             "search |",
-             "|---|---|---:|---:|---:|---:|---:|"]
-    for r in table:
-        ratio = ("-" if r["ratio_median"] is None else f"{r['ratio_median']:.2f} "
-                 f"[{r['ratio_q25']:.2f}, {r['ratio_q75']:.2f}]")
-        accepting = format_percent(r["accepting_pct"])
-        lines.append(f"| {r['configuration']} | {r['stage']} | {r['stages']} | "
-                     f"{r['accepting']} ({accepting}) | {r['accepted_steps']} | "
-                     f"{ratio} | {r['chosen_post']} / {r['chosen_pre']} / "
-                     f"{r['chosen_baseline']} / {r['chosen_search']} |")
-    return "\n".join(lines)
 
 
 def largest_kink(q: np.ndarray) -> float:

@@ -14,20 +14,21 @@ Definitions (Sec. VI-B), per (configuration, planner):
 * Fig. 9a/9b: per environment, the percentage of scenes with score success (solid) and with
   success or partial success (dashed) against the number of objects, both planners.
 * Paired comparison (Sec. VI-A's grade, over many initializations): per configuration, each
-  physics row against the baseline row of the same scene, angle and configuration, by
-  `scene.grading.behaviour_grade` (class, then boxes tipped or fallen): better / same / worse,
-  the kinematic failures of each, and a two-sided sign test on better against worse (ties
-  left out). One plan per scene is a draw on toppling clutter; this is the fair reading.
+  compared planner's row (any planner but the baseline) against the baseline row of the same
+  scene, angle and configuration, by `scene.grading.behaviour_grade` (class, then boxes
+  tipped or fallen): better / same / worse, the kinematic failures of each, and a two-sided
+  sign test on better against worse (ties left out). One plan per scene is a draw on
+  toppling clutter; this is the fair reading.
 * Where the difference lies: per comparison, the scenes carrying the mean P(success)
   difference (`paired.scene_contributions`), with the pairs that differ.
 * Selected-plan success (beyond the paper): per scene, the robust P(success) of the candidate
   each planner ranks first without the judge (`selection_score`), beside the best angle's.
-* Fig. 9c: mean planning time per initialization (s) against the number of objects: for the
-  physics planner, its stages (pre, search, phi stages, post, select) on units whose baseline
-  candidate gave it an initialization; for the baseline, its whole planning time per angle
-  (for reference).
+* Fig. 9c: mean planning time per initialization (s) against the number of objects, as each
+  planner reads its own (`Planner.plan_seconds`: the physics planner's stages on units whose
+  baseline candidate gave it an initialization; the others' whole planning time per angle).
 
-The paper's published numbers sit beside ours (Tables III and IV). The paper gives Fig. 9's
+The paper's published numbers sit beside ours (Tables III and IV), beside the planner that
+reproduces each of its rows (`Planner.paper_row`). The paper gives Fig. 9's
 curves only as plots; its text says the baseline was near 100% at 5 objects or fewer, which
 `PAPER_FIG9_NOTE` repeats in the Markdown.
 """
@@ -40,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drake_clutter.common.config import BaselineConfig, ReportConfig
+from drake_clutter.common.config import Config, ReportConfig
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS, scene_score
 from drake_clutter.experiments.candidates import (
     candidate_ceiling,
@@ -70,33 +71,34 @@ from drake_clutter.experiments.plan_statistics import (
     format_percent,
     groups,
     markdown_smoothness,
-    markdown_stages,
     percent,
     smoothness,
-    stage_statistics,
 )
+from drake_clutter.planners.registry import BASELINE, get_planner
 from drake_clutter.planners.selection import selection_score as planner_selection_score
 
 TRAJECTORY_KINDS = tuple(k for k in OUTCOME_KINDS if k != "planner_failure")
 
 # Table III (Sec. VI-B): % of scenes with success or partial success, (% partial success).
 PAPER_TABLE_III = {
-    "baseline": {"bookshelf": (76.7, 8.3), "fridge": (65.6, 5.6), "aggregate": (70.0, 6.7)},
-    "physics": {"bookshelf": (86.7, 10.0), "fridge": (83.3, 13.3), "aggregate": (84.7, 12.0)},
+    "paper: baseline": {"bookshelf": (76.7, 8.3), "fridge": (65.6, 5.6),
+                        "aggregate": (70.0, 6.7)},
+    "paper: physics-aware": {"bookshelf": (86.7, 10.0), "fridge": (83.3, 13.3),
+                             "aggregate": (84.7, 12.0)},
 }
 # Table IV (Sec. VI-B): % of the 918 trajectories of each algorithm per outcome.
 PAPER_TABLE_IV = {
-    "baseline": {"success": 36.9, "partial_success": 1.1, "failure_to_grasp": 32.9,
-                 "objects_falling": 1.4, "kinematic_failure": 27.7},
-    "physics": {"success": 48.7, "partial_success": 2.2, "failure_to_grasp": 27.2,
-                "objects_falling": 1.3, "kinematic_failure": 20.6},
+    "paper: baseline": {"success": 36.9, "partial_success": 1.1, "failure_to_grasp": 32.9,
+                        "objects_falling": 1.4, "kinematic_failure": 27.7},
+    "paper: physics-aware": {"success": 48.7, "partial_success": 2.2,
+                             "failure_to_grasp": 27.2, "objects_falling": 1.3,
+                             "kinematic_failure": 20.6},
 }
 PAPER_TRAJECTORIES = 918
 PAPER_FIG9_NOTE = ("The paper gives Fig. 9's curves as plots only; its text: at 5 objects or "
                    "fewer the baseline succeeded in near 100% of scenes, and the rates fall "
                    "from about 6 objects on; Fig. 9c's time per initialization grows with the "
                    "number of objects (C++, 24-core workstation).")
-PHYSICS_STAGES = ("pre", "search", "sphere", "full", "post", "select")
 
 
 
@@ -120,6 +122,12 @@ def robust_scene_success(rows: list[dict], partial: bool = False) -> dict[str, f
     return best
 
 
+def paper_row(planner: str) -> str | None:
+    """The key of the paper's rows (`PAPER_TABLE_III`, `PAPER_TABLE_IV`) that ``planner``
+    reproduces (`Planner.paper_row`); None for a planner beyond the paper."""
+    return get_planner(planner).paper_row
+
+
 def table_iii(rows: list[dict]) -> list[dict]:
     """Table III rows: per group and environment (and aggregate), scenes and percentages."""
     out = []
@@ -132,7 +140,7 @@ def table_iii(rows: list[dict]) -> list[dict]:
             chosen = [scores[s][2] for s in names]
             n = len(chosen)
             success, partial = chosen.count("success"), chosen.count("partial_success")
-            paper = PAPER_TABLE_III.get(planner, {}).get(env, (None, None))
+            paper = PAPER_TABLE_III.get(paper_row(planner), {}).get(env, (None, None))
             out.append({"configuration": config, "planner": planner, "environment": env,
                         "scenes": n, "success_pct": percent(success, n),
                         "partial_pct": percent(partial, n),
@@ -156,7 +164,7 @@ def table_iv(rows: list[dict]) -> list[dict]:
             out.append({"configuration": config, "planner": planner, "outcome": kind,
                         "count": kinds.count(kind), "pct": percent(kinds.count(kind), trajectories),
                         "robust_pct": percent(replays.count(kind), len(replays)),
-                        "paper_pct": PAPER_TABLE_IV.get(planner, {}).get(kind)})
+                        "paper_pct": PAPER_TABLE_IV.get(paper_row(planner), {}).get(kind)})
         out.append({"configuration": config, "planner": planner, "outcome": "planner_failure",
                     "count": kinds.count("planner_failure"), "pct": None, "robust_pct": None,
                     "paper_pct": None})
@@ -195,12 +203,7 @@ def table_levels(rows: list[dict]) -> list[dict]:
 def _init_seconds(row: dict) -> float | None:
     """Planning seconds of one initialization (see the module docstring), None if none."""
     timings = row.get("timings") or {}
-    if row["planner"] == "physics":
-        stages = timings.get("planner") or {}
-        if "pre" not in stages:
-            return None
-        return float(sum(stages.get(s, 0.0) for s in PHYSICS_STAGES))
-    return float(timings["plan"]) if "plan" in timings else None
+    return get_planner(row["planner"]).plan_seconds(timings)
 
 
 def fig9_data(rows: list[dict]) -> list[dict]:
@@ -291,13 +294,13 @@ def markdown_fig9(data: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def selection_score(row: dict, baseline: BaselineConfig | None = None) -> float | None:
+def selection_score(row: dict, config: Config | None = None) -> float | None:
     """The score the row's planner ranks its candidates by without the judge
     (`planners.selection.selection_score`, lower is better); None for a row without a plan."""
     plan = row.get("plan") or {}
     if not plan.get("trajectory"):
         return None
-    return planner_selection_score(row["planner"], plan.get("details") or {}, baseline)
+    return planner_selection_score(row["planner"], plan.get("details") or {}, config)
 
 
 def selected_rows(rows: list[dict]) -> dict[tuple[str, str, str], dict | None]:
@@ -322,29 +325,27 @@ def selected_plan_success(rows: list[dict], settings: ReportConfig | None = None
     scenes, the mean robust P(success) (`row_p_success`; 0 where nothing was selected) of the
     candidate each planner would execute (`selected_rows`) beside the best angle's (the
     paper's scene success, which needs the judge to pick), and the per-scene difference
-    planner minus baseline with its bootstrap interval. The "physics" fields hold the other
-    planner's; its configuration is named "<configuration>/<planner>" for planners other
-    than "physics" (as in the paired table)."""
+    planner minus baseline with its bootstrap interval. The "compared" fields hold the
+    planner's; the comparison is named "<configuration>/<planner>" (as in the paired table)."""
     settings = settings or ReportConfig()
     chosen = selected_rows(rows)
     best = {(c, p): robust_scene_success(g) for (c, p), g in groups(rows).items()}
     out = []
     for config, planner in best:
-        if planner == "baseline" or (config, "baseline") not in best:
+        if planner == BASELINE or (config, BASELINE) not in best:
             continue
-        scenes = sorted(set(best[(config, planner)]) & set(best[(config, "baseline")]))
+        scenes = sorted(set(best[(config, planner)]) & set(best[(config, BASELINE)]))
         p = {name: [0.0 if chosen.get((config, name, s)) is None else
                     row_p_success(chosen[(config, name, s)]) for s in scenes]
-             for name in (planner, "baseline")}
-        diffs = np.subtract(p[planner], p["baseline"])
+             for name in (planner, BASELINE)}
+        diffs = np.subtract(p[planner], p[BASELINE])
         low, high = bootstrap_interval(diffs, settings)
-        out.append({"configuration": config if planner == "physics" else f"{config}/{planner}",
-                    "scenes": len(scenes),
-                    "physics_selected": float(np.mean(p[planner])),
-                    "baseline_selected": float(np.mean(p["baseline"])),
-                    "physics_best_angle": float(np.mean([best[(config, planner)][s]
+        out.append({"configuration": f"{config}/{planner}", "scenes": len(scenes),
+                    "compared_selected": float(np.mean(p[planner])),
+                    "baseline_selected": float(np.mean(p[BASELINE])),
+                    "compared_best_angle": float(np.mean([best[(config, planner)][s]
                                                          for s in scenes])),
-                    "baseline_best_angle": float(np.mean([best[(config, "baseline")][s]
+                    "baseline_best_angle": float(np.mean([best[(config, BASELINE)][s]
                                                           for s in scenes])),
                     "selected_diff": float(np.mean(diffs)), "selected_ci_low": low,
                     "selected_ci_high": high})
@@ -358,10 +359,10 @@ def markdown_selected(table: list[dict], config: ReportConfig | None = None) -> 
              f"difference [{level} CI] | best angle's P(success): planner / baseline |",
              "|---|---:|---:|---:|---:|"]
     for r in table:
-        lines.append(f"| {r['configuration']} | {r['scenes']} | {r['physics_selected']:.3f} / "
+        lines.append(f"| {r['configuration']} | {r['scenes']} | {r['compared_selected']:.3f} / "
                      f"{r['baseline_selected']:.3f} | {r['selected_diff']:+.3f} "
                      f"[{r['selected_ci_low']:+.3f}, {r['selected_ci_high']:+.3f}] | "
-                     f"{r['physics_best_angle']:.3f} / {r['baseline_best_angle']:.3f} |")
+                     f"{r['compared_best_angle']:.3f} / {r['baseline_best_angle']:.3f} |")
     return "\n".join(lines)
 
 
@@ -372,9 +373,10 @@ def _write_csv(path: Path, table: list[dict]) -> None:
         writer.writerows(table)
 
 
-def physics_configurations(rows: list[dict]) -> list[str]:
-    """The configurations with physics rows, in the store's order."""
-    return list(dict.fromkeys(r["config_name"] for r in rows if r["planner"] == "physics"))
+def compared_configurations(rows: list[dict]) -> list[str]:
+    """The configurations with rows of a compared planner (any but the baseline), in the
+    store's order."""
+    return list(dict.fromkeys(r["config_name"] for r in rows if r["planner"] != BASELINE))
 
 
 def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
@@ -382,20 +384,21 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
                  reference: str | None = None) -> dict[str, Path]:
     """Writes report.md, table3.{md,csv}, table4.{md,csv}, levels.csv (`table_levels`),
     fig9.csv, fig9a/b/c.png, fig9.png
-    (the three panels together), paired.csv (physics against the baseline per
-    initialization), configurations.csv (every other physics configuration against the
-    ``reference`` one per initialization; default the store's first, when it has two or more),
-    candidates.csv (each planner's configurations as candidates per initialization, when it
-    has two or more), contributions.csv (`scene_contributions`), stages.csv
-    (`stage_statistics`) and smoothness.csv (`smoothness`) into ``out_dir`` (created); returns
-    the paths by name. ``config``: the paired comparison's bootstrap settings; ``reference``:
-    the configuration the others are read against (the physics comparison takes it only if it
-    has physics plans, else the store's first physics configuration)."""
+    (the three panels together), paired.csv (each compared planner against the baseline per
+    initialization), configurations.csv (every other configuration of a compared planner
+    against the ``reference`` one per initialization; default the store's first, when it has
+    two or more), candidates.csv (each planner's configurations as candidates per
+    initialization, when it has two or more), contributions.csv (`scene_contributions`), each
+    planner's own section's CSV (`Planner.report_section`, e.g. the physics planner's
+    stages.csv) and smoothness.csv (`smoothness`) into ``out_dir`` (created); returns the paths
+    by name. ``config``: the paired comparison's bootstrap settings; ``reference``: the
+    configuration the others are read against (the configurations' comparison takes it only if
+    a compared planner has plans under it, else the store's first such configuration)."""
     config = config or ReportConfig()
-    physics_configs = physics_configurations(rows)
-    physics_reference = reference if reference in physics_configs else None
-    if physics_reference is None and len(physics_configs) > 1:
-        physics_reference = physics_configs[0]
+    compared_configs = compared_configurations(rows)
+    compared_reference = reference if reference in compared_configs else None
+    if compared_reference is None and len(compared_configs) > 1:
+        compared_reference = compared_configs[0]
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t3, t4, f9 = table_iii(rows), table_iv(rows), fig9_data(rows)
@@ -403,7 +406,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
              "table3.csv": out / "table3.csv", "table4.csv": out / "table4.csv",
              "fig9.csv": out / "fig9.csv", "levels.csv": out / "levels.csv",
              "paired.csv": out / "paired.csv",
-             "stages.csv": out / "stages.csv", "selected.csv": out / "selected.csv",
+             "selected.csv": out / "selected.csv",
              "smoothness.csv": out / "smoothness.csv",
              "report.md": out / "report.md"}
     md3, md4 = markdown_table_iii(t3), markdown_table_iv(t4)
@@ -417,25 +420,24 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     pairs = paired_rows(rows)
     _write_csv(paths["paired.csv"], pairs)
     against, reference_pairs = [], []
-    if physics_reference is not None:
+    if compared_reference is not None:
         paths["configurations.csv"] = out / "configurations.csv"
-        reference_pairs = configuration_rows(rows, physics_reference)
+        reference_pairs = configuration_rows(rows, compared_reference)
         _write_csv(paths["configurations.csv"], reference_pairs)
-        against = ["## Physics configurations against each other", "",
-                   "Each other configuration's physics plan against the "
-                   f"`{physics_reference}` "
-                   "configuration's at the same scene and angle (the same initialization): "
-                   "the columns read as above, \"physics\" the other configuration and "
-                   f"\"baseline\" `{physics_reference}`. Per pair: configurations.csv.", "",
-                   markdown_paired(configuration_comparison(rows, physics_reference, config),
+        against = ["## A planner's configurations against each other", "",
+                   "Each other configuration's plan of a compared planner against the same "
+                   f"planner's under `{compared_reference}` at the same scene and angle (the "
+                   "same initialization): the columns read as above, \"planner\" the other "
+                   f"configuration and \"baseline\" `{compared_reference}`. Per pair: "
+                   "configurations.csv.", "",
+                   markdown_paired(configuration_comparison(rows, compared_reference, config),
                                    config),
                    ""]
     candidates = _candidates_section(rows, reference, config, out, paths)
     contributions = scene_contributions(pairs + reference_pairs, config.contribution_scenes)
     paths["contributions.csv"] = out / "contributions.csv"
     _write_csv(paths["contributions.csv"], contributions)
-    stages = stage_statistics(rows)
-    _write_csv(paths["stages.csv"], stages)
+    own_sections = _planner_sections(rows, out, paths)
     selected = selected_plan_success(rows, config)
     _write_csv(paths["selected.csv"], selected)
     smooth = smoothness(rows)
@@ -462,7 +464,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             markdown_fig9(f9), "", PAPER_FIG9_NOTE, "",
             "## Each planner against the baseline from the same initialization (Sec. VI-A's grade)",
             "", "Each plan of a planner other than the baseline (the comparison's name: "
-            "<configuration>/<planner>, or the configuration alone for `physics`) against "
+            "<configuration>/<planner>) against "
             "the baseline plan of the same scene, angle and "
             "configuration: the outcome class first (success, partial, failure to grasp or "
             "objects falling, kinematic failure), then the boxes tipped or fallen. Per pair: "
@@ -491,7 +493,7 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
             "robust judge grades that one: selected-plan "
             "P(success), per scene, beside the best angle's. Per configuration: selected.csv.",
             "", markdown_selected(selected, config), "",
-            *_stages_section(stages),
+            *own_sections,
             "## Smoothness of the plans", "",
             "Per plan the largest change of an arm joint's step from one knot to the next "
             "(second difference, rad): the baseline's plans are B-splines, the physics "
@@ -501,16 +503,21 @@ def write_report(rows: list[dict], out_dir: str | Path, source: str = "",
     return paths
 
 
-def _stages_section(stages: list[dict]) -> list[str]:
-    """The phi stages' table as report lines; nothing for a store without phi stages."""
-    if not stages:
-        return []
-    return ["## The physics planner's phi stages (Sec. V)", "",
-            "Per phi stage: how many accepted at least one iLQR iteration, and for the accepted "
-            "steps the actual decrease of phi's objective over the quadratic model's at the "
-            "accepted step size (1: the model was right; the trust region clips steps after the "
-            "model). The plan is the best in phi of the post-processed, pre-processed and "
-            "baseline paths. Per stage: stages.csv.", "", markdown_stages(stages), ""]
+def _planner_sections(rows: list[dict], out: Path, paths: dict) -> list[str]:
+    """Each planner's own section (`Planner.report_section`) on its stored plans, in the
+    store's order, its CSV written into ``out``."""
+    lines = []
+    for planner in dict.fromkeys(r["planner"] for r in rows):
+        plans: dict[str, list[dict]] = {}
+        for r in rows:
+            if r["planner"] == planner and r.get("plan"):
+                plans.setdefault(r["config_name"], []).append(r["plan"].get("details") or {})
+        section = get_planner(planner).report_section(plans)
+        if section is not None:
+            paths[section.csv_name] = out / section.csv_name
+            _write_csv(paths[section.csv_name], section.table)
+            lines += section.lines
+    return lines
 
 
 def _candidates_section(rows, reference, config, out, paths) -> list[str]:

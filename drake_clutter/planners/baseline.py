@@ -117,6 +117,42 @@ def plan_baseline(scene: Scene, config: BaselineConfig | None = None,
     return [plan_angle(ctx, float(alpha), i) for i, alpha in enumerate(alphas)]
 
 
+@dataclass(frozen=True)
+class BaselineRecord:
+    """What the baseline did at one approach angle, read from its candidate's ``details``: the
+    path optimisation's cost histories (``c_static_hull``, ``c_vel``; the last entry is the
+    final cost) and the dense check's deepest penetration (m)."""
+
+    c_static_hull: tuple[float, ...] = ()
+    c_vel: tuple[float, ...] = ()
+    max_penetration: float | None = None
+
+    bent = False  # a straight line
+    label = "straight path"
+
+    @classmethod
+    def from_details(cls, details: dict) -> BaselineRecord:
+        """The record of a candidate's ``details`` (stored or fresh)."""
+        pen = details.get("max_penetration")
+        return cls(tuple(map(float, details.get("c_static_hull", ()))),
+                   tuple(map(float, details.get("c_vel", ()))),
+                   None if pen is None else float(pen))
+
+    def histories(self) -> dict[str, dict]:
+        """No iLQR histories: the path is optimised by SNOPT/IPOPT."""
+        return {}
+
+    def score(self, weights: BaselineConfig | None = None) -> float | None:
+        """Sec. IV's kinematic cost at the end of the path optimisation, lower first:
+        w_static_hull x c_static_hull + w_vel x c_vel (``weights``, default the defaults);
+        None without an optimisation record."""
+        if not self.c_vel:
+            return None
+        weights = weights or BaselineConfig()
+        hull = self.c_static_hull[-1] if self.c_static_hull else 0.0
+        return weights.w_static_hull * hull + weights.w_vel * self.c_vel[-1]
+
+
 def candidates_table(candidates: list[Candidate]) -> str:
     """A text table, one row per angle: alpha, status, IK / optimisation / check times (s),
     deepest penetration found by the dense check (mm) and the reason."""

@@ -18,7 +18,7 @@ registry (the CLI, the experiment specs) stays cheap.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from importlib import import_module
 from typing import Literal, Protocol
 
@@ -31,11 +31,22 @@ from drake_clutter.trajectory import Candidate
 PlannerName = Literal["baseline", "physics", "push"]
 
 
+class PlanRecord(Protocol):
+    """A planner's typed reading of what it did at one angle (its candidates' ``details``)."""
+
+    bent: bool  # the returned path is a bent member of a path family, not a straight line
+    label: str  # the returned path in a few words (titles, tables)
+
+    def histories(self) -> dict[str, dict]:
+        """Per iLQR stage its cost and term histories (`viz.cost_curves`); {} without iLQR."""
+
+
 class Planner(Protocol):
-    """What a planner offers its callers."""
+    """What a planner offers its callers; only the planner reads its candidates' ``details``."""
 
     name: str  # its registry key, the ``planner`` of its candidates and of stored rows
     starts_from: str | None  # the planner whose candidates it refines; None: from scratch
+    paper_row: str | None  # the paper's rows it reproduces (report.PAPER_*); None: beyond it
 
     def check(self, config: Config, file: str = "<configuration>") -> None:
         """Raises ConfigError naming the first of its settings that makes no sense."""
@@ -48,12 +59,42 @@ class Planner(Protocol):
     def table(self, candidates: list[Candidate]) -> str:
         """A text table of its candidates, one row per angle."""
 
+    def record(self, details: dict) -> PlanRecord:
+        """Its typed record of a candidate's ``details`` (stored or fresh)."""
+
+    def score(self, details: dict, config: Config | None = None) -> float | None:
+        """The rank it gives a candidate with these ``details`` without the judge, lower
+        first (``config``: its settings, default the defaults); None without a record."""
+
+    def plan_seconds(self, timings: dict) -> float | None:
+        """The planning seconds of one initialization from a stored row's ``timings``."""
+
+    def report_section(self, plans: dict[str, list[dict]]) -> ReportSection | None:
+        """Its own section of an experiment report on its stored plans (``plans``:
+        configuration name -> the plans' ``details``); None when it has none."""
+
+
+@dataclass(frozen=True)
+class ReportSection:
+    """A planner's own section of an experiment report: a CSV file's name and rows, and the
+    Markdown lines of the section (none: nothing to say)."""
+
+    csv_name: str
+    table: list[dict]
+    lines: list[str]
+
+
+def _plan_seconds(timings: dict) -> float | None:
+    """The seconds of the experiment's ``plan`` timing (planners that time one call)."""
+    return float(timings["plan"]) if "plan" in timings else None
+
 
 class BaselinePlanner:
     """Sec. IV: straight-line approach angles, IK, optimisation against the static shelf."""
 
     name = "baseline"
     starts_from = None
+    paper_row = "paper: baseline"
 
     def check(self, config: Config, file: str = "<configuration>") -> None:
         """`config.check_config` (the baseline reads only ``config.baseline``)."""
@@ -78,14 +119,35 @@ class BaselinePlanner:
 
         return candidates_table(candidates)
 
+    def record(self, details: dict):
+        """`baseline.BaselineRecord`: the optimisation's costs, the dense check's depth."""
+        from drake_clutter.planners.baseline import BaselineRecord
+
+        return BaselineRecord.from_details(details)
+
+    def score(self, details: dict, config: Config | None = None) -> float | None:
+        """Sec. IV's kinematic cost at the end of the optimisation (`BaselineRecord.score`
+        with ``config.baseline``'s weights)."""
+        return self.record(details).score(None if config is None else config.baseline)
+
+    def plan_seconds(self, timings: dict) -> float | None:
+        """The experiment's ``plan`` timing (s)."""
+        return _plan_seconds(timings)
+
+    def report_section(self, plans: dict[str, list[dict]]) -> ReportSection | None:
+        """None: the baseline's plans are read in the common tables."""
+        return None
+
 
 class _FromBaseline:
     """A planner that refines the baseline's candidates: its module's ``plan(scene, config,
     start)`` and ``table(candidates)`` functions, imported when first used."""
 
     starts_from = "baseline"
+    paper_row: str | None = None
     module = ""  # the module that holds the two functions
     functions = ("", "")  # (plan, table) function names in ``module``
+    record_class = ("", "")  # (module, class) of its typed record, with ``from_details``
 
     def check(self, config: Config, file: str = "<configuration>") -> None:
         """`config.check_config` on the whole configuration."""
@@ -103,6 +165,23 @@ class _FromBaseline:
         """The module's table function: a text table of the candidates, one row per angle."""
         return getattr(import_module(self.module), self.functions[1])(candidates)
 
+    def record(self, details: dict):
+        """Its record class's ``from_details``."""
+        module, name = self.record_class
+        return getattr(import_module(module), name).from_details(details)
+
+    def score(self, details: dict, config: Config | None = None) -> float | None:
+        """Its record's ``score()``."""
+        return self.record(details).score()
+
+    def plan_seconds(self, timings: dict) -> float | None:
+        """The experiment's ``plan`` timing (s)."""
+        return _plan_seconds(timings)
+
+    def report_section(self, plans: dict[str, list[dict]]) -> ReportSection | None:
+        """None unless the planner has a section of its own."""
+        return None
+
 
 class PhysicsPlanner(_FromBaseline):
     """Sec. V: iLQR through phi, the smooth-contact simulation, from the baseline's paths
@@ -110,8 +189,27 @@ class PhysicsPlanner(_FromBaseline):
     objective)."""
 
     name = "physics"
+    paper_row = "paper: physics-aware"
     module = "drake_clutter.planners.physics.pipeline"
     functions = ("plan_physics", "stages_table")
+    record_class = ("drake_clutter.planners.physics.record", "PhysicsRecord")
+    # the steps its ``timings["planner"]`` times (s)
+    stages = ("pre", "search", "sphere", "full", "post", "select")
+
+    def plan_seconds(self, timings: dict) -> float | None:
+        """The sum of its steps' seconds (``timings["planner"]``); None for a row without
+        them."""
+        stages = timings.get("planner") or {}
+        if "pre" not in stages:
+            return None
+        return float(sum(stages.get(s, 0.0) for s in self.stages))
+
+    def report_section(self, plans: dict[str, list[dict]]) -> ReportSection | None:
+        """Its phi stages per configuration (`physics.record.stages_section`, stages.csv)."""
+        from drake_clutter.planners.physics.record import stages_section
+
+        table, lines = stages_section(plans)
+        return ReportSection("stages.csv", table, lines)
 
 
 class PushPlanner(_FromBaseline):
@@ -122,15 +220,18 @@ class PushPlanner(_FromBaseline):
     name = "push"
     module = "drake_clutter.planners.push.planner"
     functions = ("plan_push", "push_table")
+    record_class = ("drake_clutter.planners.push.record", "PushRecord")
 
 
 REGISTRY: dict[str, Planner] = {p.name: p for p in (BaselinePlanner(), PhysicsPlanner(),
                                                     PushPlanner())}
 
 
+# The reference every other planner is compared with (Sec. IV), by name.
+BASELINE = BaselinePlanner.name
 # The planners compared by default ("both" on the command line, the main job, the tiers): the
 # baseline and the planner that beats it (the push planner; the paper's Sec. V is "physics").
-COMPARED = ("baseline", "push")
+COMPARED = (BASELINE, PushPlanner.name)
 
 
 def planner_names() -> tuple[str, ...]:

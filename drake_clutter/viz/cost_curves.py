@@ -1,12 +1,12 @@
-"""Cost curves of a physics plan: every cost term against the iLQR iteration, one PNG per plan.
+"""Cost curves of a plan made by iLQR: every cost term against the iteration, one PNG per plan.
 
-The physics planner (`pipeline.optimise_candidate`) stores, per stage (``pre``, ``sphere``,
-``full``, ``post``; Sec. V), the objective after each accepted iLQR iteration and its value per
-term (``details["stages"][stage]["cost_history"]`` and ``["term_history"]``, index 0 being the
-start). The figure has one panel per stage (each stage has its own objective), each term a
-line and the total a dashed black line, on a symmetric-log y axis (terms span many orders of
-magnitude and some are exactly 0). Uses matplotlib's Agg canvas directly (no pyplot state, no
-display needed).
+A planner's record gives, per stage (the physics planner's ``pre``, ``sphere``, ``full``,
+``post``; Sec. V), the objective after each accepted iLQR iteration and its value per term
+(``histories()``: per stage ``cost_history`` and ``term_history``, index 0 being the start,
+and ``stop_reason``); a planner without iLQR gives none. The figure has one panel per stage
+(each stage has its own objective), each term a line and the total a dashed black line, on a
+symmetric-log y axis (terms span many orders of magnitude and some are exactly 0). Uses
+matplotlib's Agg canvas directly (no pyplot state, no display needed).
 """
 
 from __future__ import annotations
@@ -20,7 +20,6 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from drake_clutter.common.typed_yaml import InputError
-from drake_clutter.trajectory import Candidate
 
 STAGE_ORDER = ("pre", "sphere", "full", "post")  # physics.optimise_candidate's stages
 _LINTHRESH = 1e-6  # symlog's linear range around 0; ours: below every term's useful scale
@@ -37,13 +36,12 @@ class StageCurves:
     stop_reason: str = ""
 
 
-def stage_curves(candidate: Candidate) -> list[StageCurves]:
-    """The cost histories in a physics candidate's details, stages in pipeline order; [] for a
-    candidate without any (a baseline plan, or a physics plan that failed before iLQR).
+def stage_curves(stages: dict[str, dict]) -> list[StageCurves]:
+    """The cost histories of ``stages`` (a record's ``histories()``), stages in pipeline
+    order; [] for none (a baseline plan, or a physics plan that failed before iLQR).
 
     Raises ValueError when a stage record is malformed (terms missing at some iteration, or
     histories of different lengths)."""
-    stages = candidate.details.get("stages", {}) if isinstance(candidate.details, dict) else {}
     names = [s for s in STAGE_ORDER if s in stages] + sorted(set(stages) - set(STAGE_ORDER))
     curves = []
     for name in names:
@@ -65,11 +63,11 @@ def stage_curves(candidate: Candidate) -> list[StageCurves]:
     return curves
 
 
-def plot_cost_curves(candidate: Candidate, path: str | Path, title: str = "") -> Path | None:
-    """Writes the PNG of a physics candidate's cost curves to ``path``; returns the path, or
-    None (nothing written) when the candidate has no iLQR history. Raises InputError when the
-    file cannot be written."""
-    curves = stage_curves(candidate)
+def plot_cost_curves(stages: dict[str, dict], path: str | Path, title: str = "") -> Path | None:
+    """Writes the PNG of the cost curves of ``stages`` (a record's ``histories()``) to
+    ``path``, titled ``title``; returns the path, or None (nothing written) when there is no
+    iLQR history. Raises InputError when the file cannot be written."""
+    curves = stage_curves(stages)
     if not curves:
         return None
     figure = Figure(figsize=(4.2 * len(curves), 3.8), dpi=100, layout="constrained")
@@ -87,7 +85,7 @@ def plot_cost_curves(candidate: Candidate, path: str | Path, title: str = "") ->
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7)
     axes[0].set_ylabel("weighted cost")
-    figure.suptitle(title or f"{candidate.planner} plan, alpha = {candidate.alpha:+.3f} rad")
+    figure.suptitle(title or "cost curves")
     path = Path(path)
     try:
         figure.savefig(path, format="png")

@@ -25,12 +25,7 @@ from drake_clutter.experiments.paired import (
     paired_rows,
     scene_contributions,
 )
-from drake_clutter.experiments.plan_statistics import (
-    largest_kink,
-    markdown_stages,
-    smoothness,
-    stage_statistics,
-)
+from drake_clutter.experiments.plan_statistics import largest_kink, smoothness
 from drake_clutter.experiments.report import (
     PAPER_TABLE_III,
     selected_plan_success,
@@ -42,6 +37,8 @@ from drake_clutter.experiments.report import (
     write_report,
 )
 from drake_clutter.experiments.store import Store
+from drake_clutter.planners.physics.record import markdown_stages, stage_statistics
+from drake_clutter.planners.registry import get_planner
 
 # (env, objects, seed) -> per planner, the outcome kinds of its angles.
 SCENES = {
@@ -93,7 +90,8 @@ def test_table_iii_scene_scores(tmp_path):
     # Physics: bookshelf 2 successes, fridge s0 partial, s1 success, n8 failure.
     assert phys_all["scenes"] == 5 and phys_all["success_pct"] == pytest.approx(60.0)
     assert phys_all["partial_pct"] == pytest.approx(20.0)
-    assert phys_all["paper_success_or_partial_pct"] == PAPER_TABLE_III["physics"]["aggregate"][0]
+    paper = PAPER_TABLE_III["paper: physics-aware"]["aggregate"][0]
+    assert phys_all["paper_success_or_partial_pct"] == paper
 
 
 def test_table_iv_counts_trajectories_only(tmp_path):
@@ -172,11 +170,11 @@ def test_paired_comparison_matches_physics_with_the_baseline_of_its_initializati
     assert verdicts[("fridge_n08_s0", 0)] == "same"  # neither planned
     (summary,) = paired_comparison(rows)
     assert (summary["pairs"], summary["better"], summary["same"], summary["worse"]) == (10, 4, 5, 1)
-    assert summary["physics_kinematic_failures"] == 1 == summary["baseline_kinematic_failures"]
+    assert summary["compared_kinematic_failures"] == 1 == summary["baseline_kinematic_failures"]
     assert summary["sign_test_p"] == pytest.approx(0.375)  # 4 of 5 untied pairs, two-sided
     out = tmp_path / "report"
     write_report(rows, out)
-    assert "| default | 10 | 4 | 5 | 1 | 1 / 1 | 0.375 |" in (out / "report.md").read_text()
+    assert "| default/physics | 10 | 4 | 5 | 1 | 1 / 1 | 0.375 |" in (out / "report.md").read_text()
     with (out / "paired.csv").open() as f:
         assert len(list(csv.DictReader(f))) == 10
 
@@ -197,10 +195,10 @@ def test_paired_grade_counts_disturbed_boxes_within_a_class():
     assert paired_rows([row("baseline", "success", 0, "a"), row("physics", "success", 0)]) == []
     (summary,) = paired_comparison([row("baseline", "success", 0), row("physics", "success", 0)])
     assert summary["same"] == 1 and summary["sign_test_p"] is None
-    # Another planner than physics is paired with the baseline under its own name.
+    # Every planner is paired with the baseline under its own name.
     pairs = paired_rows([row("baseline", "failure_to_grasp", 0), row("physics", "success", 0),
                          row("push", "success", 0)])
-    assert [(p["configuration"], p["verdict"]) for p in pairs] == [("c", "better"),
+    assert [(p["configuration"], p["verdict"]) for p in pairs] == [("c/physics", "better"),
                                                                    ("c/push", "better")]
 
 
@@ -248,7 +246,7 @@ def test_scene_contributions_split_the_mean_difference_among_the_scenes(tmp_path
 def test_scene_contributions_rank_by_magnitude_and_keep_losses():
     def pair(scene, angle, base, phys):
         return {"configuration": "c", "scene": scene, "angle": angle, "baseline": "b",
-                "physics": "p", "baseline_p_success": base, "physics_p_success": phys}
+                "compared": "p", "baseline_p_success": base, "compared_p_success": phys}
     pairs = [pair("a", 0, 1.0, 0.0), pair("a", 1, 0.25, 0.0), pair("b", 0, 0.0, 0.5),
              pair("c", 0, 0.5, 0.5), pair("d", 0, 0.0, 0.1), pair("d", 1, 0.0, 0.2),
              pair("d", 2, 0.3, 0.0)]  # d: 0.1 + 0.2 - 0.3, not 0.0 in floating point
@@ -355,18 +353,19 @@ def test_stage_statistics_count_accepting_stages_ratios_and_choices():
              {"sphere": _stage(2, [(1.0, 4.0, 2.0), (1.0, 4.0, 1.0)]),
               "full": _stage(1, [(0.25, 3.0, 3.0), (0.0, 0.0, 0.0)]), "chosen": "baseline"},
              {"sphere": _stage(0, []), "full": _stage(0, []), "chosen": "post"}]
-    rows = [{"config_name": "defaults", "planner": "physics",
-             "plan": {"details": {"stages": {"sphere": p["sphere"], "full": p["full"]},
-                                  "select": {"chosen": p["chosen"]}}}} for p in plans]
-    rows += [{"config_name": "defaults", "planner": "physics", "plan": {"status": "ok"}},
-             {"config_name": "defaults", "planner": "baseline", "plan": {"status": "ok"}}]
-    sphere, full = stage_statistics(rows)
+    details = [{"stages": {"sphere": p["sphere"], "full": p["full"]},
+                "select": {"chosen": p["chosen"]}} for p in plans] + [{}]
+    sphere, full = stage_statistics({"defaults": details})
     assert (sphere["stage"], sphere["stages"], sphere["accepting"]) == ("sphere", 3, 2)
     assert sphere["accepted_steps"] == 4 and sphere["ratio_median"] == pytest.approx(1.5)
     assert (full["stages"], full["accepting"], full["accepted_steps"]) == (3, 1, 1)
     assert full["ratio_median"] == 1.0 and full["accepting_pct"] == pytest.approx(100 / 3)
     assert (sphere["chosen_post"], sphere["chosen_pre"], sphere["chosen_baseline"]) == (2, 0, 1)
     text = markdown_stages([sphere, full])
+    section = get_planner("physics").report_section({"defaults": details})
+    assert section.csv_name == "stages.csv" and section.table == [sphere, full]
+    assert text in "\n".join(section.lines)
+    assert get_planner("push").report_section({"defaults": details}) is None
     assert "| defaults | sphere | 3 | 2 (66.7%) | 4 | 1.50 [0.88, 2.50] | 2 / 0 / 1 / 0 |" in text
 
 
@@ -400,8 +399,8 @@ def test_selected_plan_success_takes_each_planners_own_first_choice():
     assert chosen[("c", "physics", "b")] is None
     (summary,) = selected_plan_success(rows)
     assert summary["baseline_selected"] == pytest.approx((0.25 + 0.5) / 2)
-    assert summary["physics_selected"] == pytest.approx((0.5 + 0.0) / 2)
-    assert summary["physics_best_angle"] == pytest.approx((1.0 + 1.0) / 2)
+    assert summary["compared_selected"] == pytest.approx((0.5 + 0.0) / 2)
+    assert summary["compared_best_angle"] == pytest.approx((1.0 + 1.0) / 2)
     assert summary["selected_diff"] == pytest.approx(0.25 / 2 - 0.5 / 2)
     # two scenes, differences +0.25 and -0.5: the resampled means are -0.5, -0.125 and +0.25,
     # and each end has a quarter of the resamples, so the 95 % interval spans them all
@@ -427,7 +426,7 @@ def test_selected_plan_success_pairs_the_push_planner_with_the_baseline():
     assert chosen[("c", "baseline", "a")]["angle"] == 0
     (summary,) = selected_plan_success(rows)
     assert summary["configuration"] == "c/push"
-    assert summary["physics_selected"] == pytest.approx(0.75)
+    assert summary["compared_selected"] == pytest.approx(0.75)
     assert summary["baseline_selected"] == 0.0 and summary["selected_diff"] == pytest.approx(0.75)
 
 
@@ -453,20 +452,20 @@ def _fill_two_configurations(db) -> list[dict]:
 def test_configurations_are_compared_on_the_same_initializations(tmp_path, capsys):
     rows = _fill_two_configurations(tmp_path / "c.db")
     (summary,) = configuration_comparison(rows, "plain")
-    assert summary["configuration"] == "search vs plain"
+    assert summary["configuration"] == "search/physics vs plain"
     assert (summary["pairs"], summary["better"], summary["same"], summary["worse"]) == (3, 2, 1, 0)
     assert summary["p_success_diff"] == pytest.approx(1 / 3)  # search minus plain
-    assert summary["physics_kinematic_failures"] == 0
+    assert summary["compared_kinematic_failures"] == 0
     assert summary["baseline_kinematic_failures"] == 1  # plain's
     assert configuration_comparison(rows, "search")[0]["p_success_diff"] == pytest.approx(-1 / 3)
     out = tmp_path / "report"
     assert main(["report", str(tmp_path / "c.db"), "--out", str(out)]) == 0
     text = (out / "report.md").read_text()
-    assert "against each other" in text and "search vs plain" in text  # the first: reference
+    assert "against each other" in text and "search/physics vs plain" in text  # first: reference
     with (out / "configurations.csv").open() as f:
         assert len(list(csv.DictReader(f))) == 3
     assert main(["report", str(tmp_path / "c.db"), "--out", str(out), "--against", "search"]) == 0
-    assert "plain vs search" in (out / "report.md").read_text()
+    assert "plain/physics vs search" in (out / "report.md").read_text()
     assert main(["report", str(tmp_path / "c.db"), "--out", str(out), "--against", "nope"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--against" in err[0] and "plain, search" in err[0]

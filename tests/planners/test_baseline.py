@@ -14,7 +14,7 @@ import pytest
 from pydrake.geometry import Role
 from pydrake.math import RigidTransform
 
-from drake_clutter.common.config import BaselineConfig, ConfigError
+from drake_clutter.common.config import BaselineConfig, Config, ConfigError
 from drake_clutter.planners import baseline as bl
 from drake_clutter.planners import clearance as cl
 from drake_clutter.planners.approach import (
@@ -412,11 +412,12 @@ def test_the_selected_candidate_has_the_lowest_kinematic_cost():
         path = Trajectory(np.array([0.0, 0.1]), np.zeros((2, 8)))
         return Candidate(0.1, status, "", path, planner="baseline", details=details)
 
-    config = BaselineConfig()
+    config = Config()
+    weights = config.baseline
     cands = [candidate(0.01, 0.1), candidate(0.0, 0.5), candidate(0.0, 0.2, "ik_failed")]
     assert selection_score("baseline", cands[0].details, config) == pytest.approx(
-        config.w_static_hull * 0.01 + config.w_vel * 0.1)
-    expected = 0 if config.w_static_hull * 0.01 + 0.1 < 0.5 else 1
+        weights.w_static_hull * 0.01 + weights.w_vel * 0.1)
+    expected = 0 if weights.w_static_hull * 0.01 + 0.1 < 0.5 else 1
     assert selected_index(cands, config) == expected
     assert selected_index([cands[2]], config) is None  # a failed candidate is never chosen
 

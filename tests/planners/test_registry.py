@@ -118,3 +118,45 @@ def test_str_enums_serialise_as_the_strings_they_replace(tmp_path):
         {"alpha": 0.0, "status": "lost"}]}))
     with pytest.raises(PlanFileError, match="candidates\\[0\\]"):
         load_plan(bad)
+
+
+# ------------------------------------------------------------- each planner reads its own record
+
+
+def test_each_planner_reads_its_own_record_and_ranks_by_it():
+
+    push = get_planner("push")
+    bent = {"chosen": "0.6/r1m2", "search": {"verdicts": {
+        "0.6/r1m2": {"p_success": 0.75, "expected_grade": 0.5, "kinds": ["success"]}}}}
+    record = push.record(bent)
+    assert record.bent and record.label == "path 0.6/r1m2" and not record.fallback
+    assert push.score(bent) == pytest.approx(-0.75 + 0.005)
+    assert not push.record({"chosen": "0.6", "clear": ["0.6"]}).bent
+    assert push.record({"chosen": "baseline"}).fallback
+    assert push.score({}) is None  # nothing judged, nothing to rank by
+
+    physics = get_planner("physics")
+    staged = {"stages": {"full": {"cost_history": [5.0, 4.0], "term_history": {"c_vel": [1, 2]}},
+                         "pre": {"cost_history": [9.0]}},
+              "select": {"chosen": "pre", "objectives": {"pre": 3.0, "post": 2.0}}}
+    record = physics.record(staged)
+    assert record.chosen == "pre" and not record.bent and physics.score(staged) == 3.0
+    assert record.histories()["full"]["term_history"] == {"c_vel": [1, 2]}
+
+    baseline = get_planner("baseline")
+    config = Config()
+    details = {"c_static_hull": [1.0, 0.01], "c_vel": [2.0, 0.3], "max_penetration": 0.0}
+    assert baseline.score(details, config) == pytest.approx(
+        config.baseline.w_static_hull * 0.01 + config.baseline.w_vel * 0.3)
+    assert baseline.record(details).max_penetration == 0.0 and baseline.score({}) is None
+
+
+def test_each_planner_reads_its_own_planning_seconds():
+    assert get_planner("push").plan_seconds({"plan": 12.5, "planner": {"search": 9.0}}) == 12.5
+    assert get_planner("baseline").plan_seconds({}) is None
+    stages = {"pre": 1.0, "sphere": 2.0, "full": 3.0, "post": 0.5, "worker_start": 40.0}
+    assert get_planner("physics").plan_seconds({"plan": 99.0, "planner": stages}) == 6.5
+    assert get_planner("physics").plan_seconds({"plan": 99.0}) is None
+    assert get_planner("baseline").paper_row == "paper: baseline"
+    assert get_planner("physics").paper_row == "paper: physics-aware"
+    assert get_planner("push").paper_row is None

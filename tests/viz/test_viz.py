@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from matplotlib.image import imread
 
+from drake_clutter.planners.registry import get_planner
 from drake_clutter.scene.scenes import DEFAULT_SCENE, load_shipped_scene
 from drake_clutter.trajectory import Candidate
 from drake_clutter.viz.cost_curves import plot_cost_curves, stage_curves
@@ -29,6 +30,11 @@ def _stage(totals_terms, stop="converged"):
             "term_history": totals_terms, "timings": {}}
 
 
+def _histories(candidate):
+    """The cost histories the candidate's planner reads from its record."""
+    return get_planner(candidate.planner).record(candidate.details).histories()
+
+
 def _physics_candidate():
     pre = [{"c_static_hull": 10.0 / (i + 1), "c_vel": 0.5 + 0.01 * i, "c_dynamic": 0.0}
            for i in range(5)]
@@ -40,7 +46,7 @@ def _physics_candidate():
 
 
 def test_stage_curves_read_the_physics_details_in_pipeline_order():
-    curves = stage_curves(_physics_candidate())
+    curves = stage_curves(_histories(_physics_candidate()))
     assert [c.stage for c in curves] == ["pre", "full", "post"]
     pre = curves[0]
     np.testing.assert_array_equal(pre.iterations, np.arange(5))
@@ -52,8 +58,8 @@ def test_stage_curves_read_the_physics_details_in_pipeline_order():
 
 def test_no_curves_for_a_baseline_plan(tmp_path):
     baseline = Candidate(0.0, "ok", planner="baseline")
-    assert stage_curves(baseline) == []
-    assert plot_cost_curves(baseline, tmp_path / "none.png") is None
+    assert stage_curves(_histories(baseline)) == []
+    assert plot_cost_curves(_histories(baseline), tmp_path / "none.png") is None
     assert not (tmp_path / "none.png").exists()
 
 
@@ -61,15 +67,15 @@ def test_malformed_history_is_a_clear_error():
     candidate = _physics_candidate()
     candidate.details["stages"]["pre"]["term_history"].pop()
     with pytest.raises(ValueError, match="stage pre: 4 term records for 5 costs"):
-        stage_curves(candidate)
+        stage_curves(_histories(candidate))
     candidate = _physics_candidate()
     del candidate.details["stages"]["full"]["term_history"][2]["c_grasp"]
     with pytest.raises(ValueError, match="'c_grasp' missing"):
-        stage_curves(candidate)
+        stage_curves(_histories(candidate))
 
 
 def test_cost_curve_png_has_one_panel_per_stage(tmp_path):
-    path = plot_cost_curves(_physics_candidate(), tmp_path / "costs.png")
+    path = plot_cost_curves(_histories(_physics_candidate()), tmp_path / "costs.png")
     assert path == tmp_path / "costs.png"
     image = imread(path)
     height, width = image.shape[:2]
@@ -88,7 +94,7 @@ def test_unwritable_cost_curve_file_is_an_input_error(tmp_path):
     from drake_clutter.common.typed_yaml import InputError
 
     with pytest.raises(InputError, match="cannot write the cost curves"):
-        plot_cost_curves(_physics_candidate(), tmp_path / "missing" / "costs.png")
+        plot_cost_curves(_histories(_physics_candidate()), tmp_path / "missing" / "costs.png")
 
 
 # ----------------------------------------------------------------------------- apps/plan_scene.py

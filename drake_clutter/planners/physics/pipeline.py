@@ -42,14 +42,13 @@ import numpy as np
 from drake_clutter.common.config import Config, check_config
 from drake_clutter.phi.workers import WorkerPool
 from drake_clutter.planners.approach import grasp_offset
-from drake_clutter.planners.baseline import plan_baseline
+from drake_clutter.planners.baseline import BaselineRecord, plan_baseline
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import pregrasp_aim
 from drake_clutter.planners.physics.grasp_height import choose_height
 from drake_clutter.planners.physics.kinematic import postprocess, preprocess
 from drake_clutter.planners.physics.stage import phi_stage_or_restart, select_path
-from drake_clutter.planners.selection import selection_score
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.solvers import ilqr
 from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
@@ -144,7 +143,7 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate,
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep the start
             details["grasp_height"] = {"error": str(exc)}
         timings["height"] = time.perf_counter() - tic
-    details["start_score"] = selection_score("baseline", candidate.details, config.baseline)
+    details["start_score"] = BaselineRecord.from_details(candidate.details).score(config.baseline)
     q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     # c_grasp aims where the start path's pads end (its pre-grasp), carried by the target.
     aim_T = pregrasp_aim(context.arm(), baseline_q[-1], scene.target,

@@ -35,8 +35,8 @@ from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import clear_paths
+from drake_clutter.planners.push.record import FALLBACK
 from drake_clutter.planners.push.search import run_search
-from drake_clutter.planners.selection import FALLBACK
 from drake_clutter.planners.starts import planned_starts, start_key
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory

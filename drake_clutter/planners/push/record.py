@@ -1,0 +1,76 @@
+"""What the push planner did at one approach angle, read from its candidate's ``details``
+(`planner.push_candidate` writes them), and the score it ranks its candidates by.
+
+The record's keys: ``clear`` (the straight starts that keep off the boxes; the first is the
+plan), ``chosen`` (the name of the returned path: a start ``"<height>"``, a bent member
+``"<start>/<draw>"``, or `FALLBACK`), ``search`` (the search's record: ``verdicts`` per judged
+path, ``counts``, ``chosen``, ``best_start``), ``recovered`` (the baseline's failure a turned
+or other-height start replaced), ``budget`` (what the time budget cut).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+# details["chosen"] of a push candidate whose search's pick reads no grasp in phi: the
+# baseline's own path is returned instead (``push_search.fallback``)
+FALLBACK = "baseline"
+# the score of a clear straight start (no search: such paths succeed in about 99 % of the
+# judge's replays) and of the fallback (P(success) 0 and the worst grade in phi)
+CLEAR_SCORE, FALLBACK_SCORE = -1.0, 0.04
+
+
+@dataclass(frozen=True)
+class PushRecord:
+    """A push candidate's record (module docstring); fields absent from ``details`` are empty."""
+
+    chosen: str = ""
+    clear: tuple[str, ...] = ()
+    search: dict = field(default_factory=dict)
+    recovered: dict = field(default_factory=dict)
+    budget: dict = field(default_factory=dict)
+
+    @classmethod
+    def from_details(cls, details: dict) -> PushRecord:
+        """The record of a candidate's ``details`` (stored or fresh)."""
+        return cls(chosen=str(details.get("chosen", "")), clear=tuple(details.get("clear", ())),
+                   search=dict(details.get("search") or {}),
+                   recovered=dict(details.get("recovered") or {}),
+                   budget=dict(details.get("budget") or {}))
+
+    @property
+    def bent(self) -> bool:
+        """Whether the returned path is a bent member of the family, not a straight start."""
+        return "/" in self.chosen
+
+    @property
+    def fallback(self) -> bool:
+        """Whether the baseline's own path was returned in place of the search's pick."""
+        return self.chosen == FALLBACK
+
+    @property
+    def label(self) -> str:
+        """The returned path in a few words (for titles and tables)."""
+        return f"path {self.chosen}" if self.chosen else "no path"
+
+    def histories(self) -> dict[str, dict]:
+        """No iLQR histories: the search samples."""
+        return {}
+
+    def verdict(self, name: str | None = None) -> dict | None:
+        """The search's verdict summary (``p_success``, ``expected_grade``, ``kinds``) of the
+        path ``name`` (default: the returned one); None when it was not judged."""
+        return (self.search.get("verdicts") or {}).get(self.chosen if name is None else name)
+
+    def score(self) -> float | None:
+        """The push planner's rank of the candidate, lower first: minus its chosen path's
+        P(success) in phi plus a hundredth of its expected grade (ties); `CLEAR_SCORE` for a
+        clear straight start, `FALLBACK_SCORE` for the fallback; None when nothing was judged."""
+        if self.clear:
+            return CLEAR_SCORE
+        if self.fallback:
+            return FALLBACK_SCORE
+        verdict = self.verdict()
+        if verdict is None:
+            return None
+        return -float(verdict["p_success"]) + 0.01 * float(verdict["expected_grade"])

@@ -93,7 +93,7 @@ def bench(kind: str, level: int, config, angles: int, pool, seed: int | None = N
     candidate = usable[0]
     reference = phi_step_seconds(scene, candidate, config)
     tic = time.perf_counter()
-    plan = optimise_candidate(PlanningContext(scene, config), candidate, pool)
+    plan = optimise_candidate(PlanningContext(scene, config), candidate, pool=pool)
     total = time.perf_counter() - tic
     t = plan.timings
     stages = plan.details.get("stages", {})

@@ -138,6 +138,9 @@ class Candidate:
     planner: str = "baseline"
     timings: dict[str, float] = field(default_factory=dict)
     details: dict = field(default_factory=dict)
+    # its approach angle's index among `approach.approach_angles` (seeds IK and the search);
+    # None for a hand-made candidate. Not written by `to_data`: a stored row has its ``angle``.
+    index: int | None = field(default=None, compare=False)
 
     def __post_init__(self):
         self.status = CandidateStatus(self.status)

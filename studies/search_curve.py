@@ -84,7 +84,7 @@ def one(job: dict) -> dict:
     scene = stored_scene(job["scene"], config)
     baseline = plan_one_angle(scene, config, "baseline", job["angle"])
     context = PlanningContext(scene, config)
-    geometry, times = context.arm(), baseline.trajectory.times
+    times = baseline.trajectory.times
     starts = {start_key(*k): c.trajectory.q
               for k, c in height_candidates(context, baseline).items()}
     judged: dict[str, dict] = {}
@@ -98,7 +98,7 @@ def one(job: dict) -> dict:
         return judged[key]
 
     tic = time.perf_counter()
-    today = run_search(scene, starts, times, config, geometry, context.clearance, job["angle"])
+    today = run_search(context, starts, times, job["angle"])
     today_seconds = time.perf_counter() - tic
     t_name, t_q = returned(today.name, today.q, today.record["verdicts"].get(today.name),
                            baseline.trajectory.q, config)
@@ -119,8 +119,7 @@ def one(job: dict) -> dict:
                             "bent": "/" in name, "seconds": clock["spent"], **judge(q)})
         clock["tic"] = time.perf_counter()
 
-    run_search(scene, starts, times, cem, geometry, context.clearance, job["angle"],
-               observe=observe)
+    run_search(context.with_config(cem), starts, times, job["angle"], observe=observe)
     return {"scene": job["scene"], "angle": job["angle"],
             "baseline": judge(baseline.trajectory.q),
             "today": {"chosen": t_name, "paths": len(today.record["verdicts"]),

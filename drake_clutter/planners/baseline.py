@@ -60,7 +60,14 @@ def _trajectory(q_arm: np.ndarray, knot_time: float) -> Trajectory:
 
 
 def plan_angle(ctx: _Context, alpha: float, index: int) -> Candidate:
-    """One approach angle: IK, interpolation, optimisation, dense check -> a Candidate."""
+    """One approach angle (``alpha`` rad, index ``index`` of the scene's angles): IK,
+    interpolation, optimisation, dense check -> a Candidate carrying ``index``."""
+    candidate = _plan_angle(ctx, alpha, index)
+    candidate.index = index
+    return candidate
+
+
+def _plan_angle(ctx: _Context, alpha: float, index: int) -> Candidate:
     config = ctx.config
     poses = approach_poses(ctx.scene, alpha, config, ctx.extent)
     details = {"height": poses.height,

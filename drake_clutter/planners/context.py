@@ -41,6 +41,14 @@ class PlanningContext:
     _clearance: ShelfClearance | None = field(default=None, repr=False)
     _baselines: dict = field(default_factory=dict, repr=False)
 
+    def with_config(self, config: Config) -> PlanningContext:
+        """The same scene's worlds under other settings: the arms and the clearance are
+        shared (they do not depend on the configuration); Sec. IV's prepared solvers only
+        where ``config.baseline`` is the same."""
+        same = config.baseline == self.config.baseline
+        return PlanningContext(self.scene, config, self._arms, self._clearance,
+                               self._baselines if same else {})
+
     def arm(self, variant: str = "capsules") -> ArmGeometry:
         """The arm in ``variant`` ("capsules", "sphere_gripper", "evaluation") with the boxes at
         rest, built on first use; its boxes must not be moved."""

@@ -19,6 +19,7 @@ import time
 
 import numpy as np
 
+from drake_clutter.common.config import Config
 from drake_clutter.planners import baseline
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.budget import Deadline
@@ -82,13 +83,20 @@ def _fractions(config) -> list[float]:
     return [base] + [f for f in config.physics.grasp_heights if f != base]
 
 
+def angle_index(candidate: Candidate, config: Config) -> int:
+    """The index of ``candidate``'s approach angle among `approach.approach_angles`: the one it
+    carries, else (a hand-made candidate) the nearest angle's."""
+    if candidate.index is not None:
+        return candidate.index
+    return int(np.argmin(np.abs(approach_angles(config.baseline) - candidate.alpha)))
+
+
 def _plan_starts(context: PlanningContext, candidate: Candidate, keys: list,
                  deadline: Deadline | None, contexts: dict | None = None) -> dict:
     """The baseline planned at ``candidate``'s angle turned by each (fraction, offset) of
     ``keys``, in order, the ok ones; one prepared solver per fraction (``contexts``), so that a
     later offset starts from the IK solutions of the earlier ones, as the baseline's angles do."""
-    alphas = approach_angles(context.config.baseline)
-    index = int(np.argmin(np.abs(alphas - candidate.alpha)))
+    index = angle_index(candidate, context.config)
     contexts = {} if contexts is None else contexts
     out = {}
     for fraction, offset in keys:

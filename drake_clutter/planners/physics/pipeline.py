@@ -46,6 +46,7 @@ from drake_clutter.planners.baseline import BaselineRecord, plan_baseline
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import pregrasp_aim
+from drake_clutter.planners.loop import refine_each
 from drake_clutter.planners.physics.grasp_height import choose_height
 from drake_clutter.planners.physics.kinematic import postprocess, preprocess
 from drake_clutter.planners.physics.stage import phi_stage_or_restart, select_path
@@ -121,11 +122,13 @@ def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> 
                      candidate.trajectory, planner="physics", timings=timings, details=details)
 
 
-def optimise_candidate(context: PlanningContext, candidate: Candidate,
+def optimise_candidate(context: PlanningContext, candidate: Candidate, index: int | None = None,
                        pool: WorkerPool | None = None, started: float | None = None
                        ) -> Candidate:
-    """Sec. V on one baseline candidate (module docstring) in the scene's planning
-    ``context``; a non-"ok" candidate comes back as it is, relabelled planner "physics"."""
+    """Sec. V on one baseline candidate (module docstring; ``index``: its angle's, unused: the
+    stages draw nothing at random) in the scene's planning ``context``; ``pool``: phi's
+    workers; ``started``: the `time.monotonic` value its budget counts from (None: now). A
+    non-"ok" candidate comes back as it is, relabelled planner "physics"."""
     if not candidate.ok:
         return replace(candidate, planner="physics",
                        reason=f"no initialization: {candidate.reason or candidate.status}")
@@ -216,26 +219,15 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate,
 
 
 def plan_physics(scene: Scene, config: Config | None = None,
-                 candidates: list[Candidate] | None = None,
-                 pool: WorkerPool | None = None) -> list[Candidate]:
+                 candidates: list[Candidate] | None = None) -> list[Candidate]:
     """Sec. V on every candidate (default: `baseline.plan_baseline` of the scene), in order:
-    one physics Candidate each. A shared worker pool for phi's derivatives is created (and
-    closed) here unless one is passed in. The first candidate's budget also pays for the
-    planning worlds."""
+    one physics Candidate each (`loop.refine_each`: one worker pool for phi's derivatives,
+    the first candidate's budget also paying for the planning worlds)."""
     config = config or Config()
     check_config(config)
     if candidates is None:
         candidates = plan_baseline(scene, config.baseline)
-    own = pool is None and config.dynamics.workers > 0
-    pool = WorkerPool(config.dynamics.workers) if own else pool
-    try:
-        started = time.monotonic()
-        context = PlanningContext(scene, config)
-        return [optimise_candidate(context, c, pool, started if i == 0 else None)
-                for i, c in enumerate(candidates)]
-    finally:
-        if own:
-            pool.close()
+    return refine_each(scene, config, candidates, optimise_candidate)
 
 
 def stages_table(candidates: list[Candidate]) -> str:

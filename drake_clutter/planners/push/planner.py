@@ -27,14 +27,11 @@ from __future__ import annotations
 import math
 import time
 
-import numpy as np
-
-from drake_clutter.common.config import Config, check_config
-from drake_clutter.phi.workers import WorkerPool
-from drake_clutter.planners.approach import approach_angles
+from drake_clutter.common.config import Config
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import clear_paths
+from drake_clutter.planners.loop import refine_each
 from drake_clutter.planners.push.record import FALLBACK
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.planners.starts import planned_starts, start_key
@@ -44,25 +41,9 @@ from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
 
 def plan_push(scene: Scene, config: Config, start: list[Candidate]) -> list[Candidate]:
     """One "push" Candidate per baseline candidate in ``start``, in order (module
-    docstring); phi's members are rolled out in ``dynamics.workers`` worker processes (0: in
-    this one). The first candidate's budget also pays for the planning worlds."""
-    started = time.monotonic()
-    check_config(config)
-    context = PlanningContext(scene, config)
-    alphas = approach_angles(config.baseline)
-    pool = WorkerPool(config.dynamics.workers) if config.dynamics.workers > 0 else None
-    out = []
-    try:
-        if pool is not None:
-            pool.start()  # the workers start up while the starts are planned
-        for candidate in start:
-            index = int(np.argmin(np.abs(alphas - candidate.alpha)))
-            out.append(push_candidate(context, candidate, index, pool, started))
-            started = None
-    finally:
-        if pool is not None:
-            pool.close()
-    return out
+    docstring; `loop.refine_each`: phi's members are rolled out in ``dynamics.workers``
+    worker processes, 0: in this one)."""
+    return refine_each(scene, config, start, push_candidate)
 
 
 def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
@@ -90,8 +71,7 @@ def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
         return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
                          timings=timings, details=details)
     tic = time.perf_counter()
-    result = run_search(scene, starts, times, config, geometry, context.clearance, index,
-                        pool, deadline)
+    result = run_search(context, starts, times, index, pool, deadline)
     timings["search"] = time.perf_counter() - tic
     details = {"initialization": candidate.planner, "search": result.record,
                "chosen": result.name, "budget": deadline.record(), **recovered}

@@ -52,14 +52,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from drake_clutter.common.config import Config, PushSearchConfig
+from drake_clutter.common.config import PushSearchConfig
 from drake_clutter.planners.budget import Deadline
-from drake_clutter.planners.clearance import ShelfClearance
-from drake_clutter.planners.geometry import ArmGeometry
+from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.phi_judge import PhiVerdict, judge_paths
 from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
 from drake_clutter.planners.push.family import PushPath, ViaPoint, feasible, member_path
-from drake_clutter.scene.scenes import Scene
 
 
 @dataclass(frozen=True)
@@ -119,13 +117,13 @@ class Search:
     """One approach angle's search (module docstring): the starts, the worlds to check and
     judge them in, and every path judged so far."""
 
-    def __init__(self, scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray,
-                 config: Config, geometry: ArmGeometry, clearance: ShelfClearance, pool=None,
-                 deadline: Deadline | None = None):
-        self.scene, self.times, self.config = scene, np.asarray(times, float), config
+    def __init__(self, context: PlanningContext, starts: dict[str, np.ndarray],
+                 times: np.ndarray, pool=None, deadline: Deadline | None = None):
+        config = context.config
+        self.scene, self.times, self.config = context.scene, np.asarray(times, float), config
         self.pool = pool
         self.deadline = deadline or Deadline(None)
-        self.geometry, self.clearance = geometry, clearance
+        self.geometry, self.clearance = context.arm(), context.clearance
         search = config.push_search
         self.judge_config = replace(
             config, dynamics=replace(config.dynamics, engine=search.engine),
@@ -229,18 +227,19 @@ class Search:
                for n, v in verdicts.items()}}
 
 
-def run_search(scene: Scene, starts: dict[str, np.ndarray], times: np.ndarray, config: Config,
-               geometry: ArmGeometry, clearance: ShelfClearance, index: int = 0, pool=None,
-               deadline: Deadline | None = None, observe=None) -> SearchResult:
-    """The search of one approach angle (``index``, seeds the draws) from the straight
-    ``starts`` (name: knots (T + 1, 8), the first the baseline's; knots at ``times`` s);
-    see the module docstring. ``pool``: a `phi.workers.WorkerPool` the members are rolled
-    out in (the same result); ``deadline``: the initialization's budget (None: none);
-    ``observe``: called as ``observe(round, search, best_start)`` after each round (to read
-    the search at any time; it must not change it)."""
+def run_search(context: PlanningContext, starts: dict[str, np.ndarray], times: np.ndarray,
+               index: int = 0, pool=None, deadline: Deadline | None = None, observe=None
+               ) -> SearchResult:
+    """The search of one approach angle (``index``, seeds the draws) in the scene's planning
+    ``context`` (its worlds; its configuration the settings) from the straight ``starts``
+    (name: knots (T + 1, 8), the first the baseline's; knots at ``times`` s); see the module
+    docstring. ``pool``: a `phi.workers.WorkerPool` the members are rolled out in (the same
+    result); ``deadline``: the initialization's budget (None: none); ``observe``: called as
+    ``observe(round, search, best_start)`` after each round (to read the search at any time;
+    it must not change it)."""
     tic = time.perf_counter()
-    cfg = config.push_search
-    s = Search(scene, starts, times, config, geometry, clearance, pool, deadline)
+    cfg = context.config.push_search
+    s = Search(context, starts, times, pool, deadline)
     s.verdicts.update(s.judge(list(starts)))
     judged = [n for n in starts if n in s.verdicts]
     if not judged:

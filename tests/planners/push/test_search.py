@@ -10,12 +10,9 @@ import numpy as np
 import pytest
 
 from drake_clutter.common.config import Config, load_config
-from drake_clutter.planners.approach import static_planning_world
 from drake_clutter.planners.baseline import plan_baseline
 from drake_clutter.planners.budget import Deadline
-from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.phi_judge import PhiReading, PhiVerdict
 from drake_clutter.planners.push import search as search_module
 from drake_clutter.planners.push.family import PushPath, ViaPoint
@@ -32,8 +29,7 @@ def setting():
     scene = scenes.load_shipped_scene("fig6_push_sideways")
     (candidate,) = plan_baseline(scene, Config().baseline, alphas=[0.0])
     assert candidate.ok, candidate.reason
-    return (scene, candidate.trajectory, ArmGeometry(scene, "capsules"),
-            ShelfClearance(static_planning_world(scene)))
+    return scene, candidate.trajectory, PlanningContext(scene, Config())
 
 
 def _verdict(*kinds: str) -> PhiVerdict:
@@ -75,15 +71,15 @@ def _nearness_judge(start_q, aim):
 
 
 def test_the_cross_entropy_search_climbs_and_refits_its_spreads(setting, monkeypatch):
-    scene, trajectory, geometry, clearance = setting
+    scene, trajectory, context = setting
     monkeypatch.setattr(search_module, "judge_paths", _nearness_judge(trajectory.q, 0.15))
     config = load_config(None, [*SMALL, "push_search.method=cem", "push_search.samples=6",
                                 "push_search.rounds=4", "push_search.elite=2",
                                 "push_search.population=6", "push_search.veto_members=1",
                                 "push_search.spread_floor_offset=0.004"])
     seen = []
-    result = run_search(scene, {"a": trajectory.q}, trajectory.times, config, geometry,
-                        clearance, observe=lambda r, s, best: seen.append((r, s.elite())))
+    result = run_search(context.with_config(config), {"a": trajectory.q}, trajectory.times,
+                        observe=lambda r, s, best: seen.append((r, s.elite())))
     record = result.record
     assert [r for r, _ in seen] == [0, 1, 2, 3]
     margins = {n: v["margin"] for n, v in record["verdicts"].items()}
@@ -93,14 +89,13 @@ def test_the_cross_entropy_search_climbs_and_refits_its_spreads(setting, monkeyp
     assert spreads[0] == (0.04, 0.015)  # round 1's elite are draws: no step to refit to
     assert len(set(spreads[1:])) > 1 and all(o >= 0.004 for _, o in spreads)
     assert sum(1 for n in margins if "/r1m" in n) == record["rounds"][1]["judged"] <= 6
-    again = run_search(scene, {"a": trajectory.q}, trajectory.times, config, geometry,
-                       clearance)
+    again = run_search(context.with_config(config), {"a": trajectory.q}, trajectory.times)
     assert again.record["verdicts"].keys() == record["verdicts"].keys()
     assert again.record["rounds"] == record["rounds"]
 
 
 def test_the_veto_keeps_the_start_unless_the_pick_wins_on_unseen_members(setting, monkeypatch):
-    scene, trajectory, geometry, clearance = setting
+    scene, trajectory, context = setting
     config = load_config(None, SMALL)
     seen_members = []
 
@@ -124,58 +119,58 @@ def test_the_veto_keeps_the_start_unless_the_pick_wins_on_unseen_members(setting
 
     starts = {"a": trajectory.q, "b": trajectory.q.copy()}
     monkeypatch.setattr(search_module, "judge_paths", scripted(True))
-    result = run_search(scene, starts, trajectory.times, config, geometry, clearance)
+    result = run_search(context.with_config(config), starts, trajectory.times)
     assert "/" in result.name and result.record["veto"]["wins"] is True
     assert result.record["pick"] == result.name and result.record["best_start"] == "a"
     assert seen_members[-1] == [2, 3]  # the held-out members follow the search's
     monkeypatch.setattr(search_module, "judge_paths", scripted(False))
-    result = run_search(scene, starts, trajectory.times, config, geometry, clearance)
+    result = run_search(context.with_config(config), starts, trajectory.times)
     assert result.name == "a" and result.record["veto"]["wins"] is False
     assert "/" in result.record["pick"]
     np.testing.assert_array_equal(result.q, trajectory.q)
 
 
 def test_a_start_that_reads_success_stops_the_search(setting, monkeypatch):
-    scene, trajectory, geometry, clearance = setting
+    scene, trajectory, context = setting
     monkeypatch.setattr(search_module, "judge_paths",
                         lambda scene, paths, *a, **k: {n: _verdict("success") for n in paths})
-    result = run_search(scene, {"a": trajectory.q}, trajectory.times,
-                        load_config(None, SMALL), geometry, clearance)
+    result = run_search(context.with_config(load_config(None, SMALL)), {"a": trajectory.q},
+                        trajectory.times)
     assert result.name == "a" and result.record["rounds"] == []
     assert result.record["counts"]["drawn"] == 0 and result.record["veto"] is None
 
 
 def test_a_search_past_its_time_budget_starts_no_round(setting, monkeypatch):
-    scene, trajectory, geometry, clearance = setting
+    scene, trajectory, context = setting
     monkeypatch.setattr(search_module, "judge_paths", lambda scene, paths, *a, **k: {
         n: _verdict("failure_to_grasp") for n in paths})  # a judge that ignores the deadline
     config = load_config(None, SMALL)
     spent = Deadline(1.0e-9)
-    result = run_search(scene, {"a": trajectory.q}, trajectory.times, config, geometry,
-                        clearance, deadline=spent)
+    result = run_search(context.with_config(config), {"a": trajectory.q}, trajectory.times,
+                        deadline=spent)
     assert result.name == "a" and result.record["rounds"] == []
     assert result.record["stopped"] == "time_budget after 0 rounds"
     assert spent.record()["cut"] == ["search round 1"] and spent.record()["spent"]
     ample = Deadline(1.0e6)
-    result = run_search(scene, {"a": trajectory.q}, trajectory.times, config, geometry,
-                        clearance, deadline=ample)
+    result = run_search(context.with_config(config), {"a": trajectory.q}, trajectory.times,
+                        deadline=ample)
     assert len(result.record["rounds"]) == 2 and "stopped" not in result.record
     assert ample.record()["cut"] == [] and not ample.record()["spent"]
 
 
 def test_paths_the_deadline_cut_are_left_out_and_with_no_start_the_first_returns(
         setting, monkeypatch):
-    scene, trajectory, geometry, clearance = setting
+    scene, trajectory, context = setting
     config = load_config(None, SMALL)
     starts = {"a": trajectory.q, "b": trajectory.q.copy()}
     monkeypatch.setattr(search_module, "judge_paths", lambda scene, paths, *a, **k: {
         n: _verdict("failure_to_grasp") for n in paths if n != "a"})  # "a" was cut
-    result = run_search(scene, starts, trajectory.times, config, geometry, clearance)
+    result = run_search(context.with_config(config), starts, trajectory.times)
     assert result.record["best_start"] == "b" and "a" not in result.record["verdicts"]
     assert result.record["stopped"] == "time_budget while judging the starts"
     assert result.record["counts"]["unjudged"] == 1 and result.record["rounds"] == []
     monkeypatch.setattr(search_module, "judge_paths", lambda *a, **k: {})  # all cut
-    result = run_search(scene, starts, trajectory.times, config, geometry, clearance)
+    result = run_search(context.with_config(config), starts, trajectory.times)
     assert result.name == "a" and result.record["best_start"] is None
     assert result.record["verdicts"] == {} and result.record["counts"]["unjudged"] == 2
     np.testing.assert_array_equal(result.q, trajectory.q)
@@ -186,7 +181,8 @@ def test_the_real_judge_steps_nothing_after_its_deadline(setting):
 
     from drake_clutter.planners.phi_judge import judge_paths
 
-    scene, trajectory, geometry, _ = setting
+    scene, trajectory, context = setting
+    geometry = context.arm()
     config = load_config(None, ["ensemble.members=2", "dynamics.engine=mujoco"])
     paths = {"a": trajectory.q}
     tic = time.monotonic()
@@ -214,18 +210,16 @@ def test_a_push_plan_past_its_budget_returns_the_baseline_path_and_says_so():
 
 
 def test_a_real_search_returns_a_judged_path_and_is_seeded(setting):
-    scene, trajectory, geometry, clearance = setting
+    scene, trajectory, context = setting
     config = load_config(None, [*SMALL, "push_search.rounds=1", "push_search.samples=2"])
-    first = run_search(scene, {"0.5": trajectory.q}, trajectory.times, config, geometry,
-                       clearance)
+    first = run_search(context.with_config(config), {"0.5": trajectory.q}, trajectory.times)
     record = first.record
     assert record["counts"]["drawn"] == 2 and record["chosen"] == first.name
     assert set(record["verdicts"]) >= {"0.5", first.name}
     for verdict in record["verdicts"].values():
         assert len(verdict["kinds"]) == 2
         assert verdict["p_success"] == verdict["kinds"].count("success") / 2
-    again = run_search(scene, {"0.5": trajectory.q}, trajectory.times, config, geometry,
-                       clearance)
+    again = run_search(context.with_config(config), {"0.5": trajectory.q}, trajectory.times)
     assert again.name == first.name and again.record["verdicts"] == record["verdicts"]
 
 
@@ -252,7 +246,8 @@ def test_members_rolled_out_in_workers_read_the_same(setting):
     from drake_clutter.phi.workers import WorkerPool
     from drake_clutter.planners.phi_judge import judge_paths
 
-    scene, trajectory, geometry, _ = setting
+    scene, trajectory, context = setting
+    geometry = context.arm()
     config = load_config(None, ["ensemble.members=2", "dynamics.engine=mujoco"])
     paths = {"a": trajectory.q}
     serial = judge_paths(scene, paths, trajectory.times, config, geometry=geometry)
@@ -304,7 +299,7 @@ def test_a_pick_that_reads_no_grasp_falls_back_to_the_baseline_path(kinds, fallb
     from drake_clutter.planners.push import planner as planner_module
     from drake_clutter.planners.push.search import SearchResult
 
-    scene, trajectory, _, _ = setting
+    scene, trajectory, _ = setting
     bent = trajectory.q + 0.01
     record = {"chosen": "0.5/r0m0", "verdicts": {"0.5/r0m0": {"kinds": kinds}}}
     monkeypatch.setattr(planner_module, "run_search",

@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 
 from drake_clutter.common.arguments import OneLineParser
-from drake_clutter.common.config import Config, config_from_data, load_config
+from drake_clutter.common.config import Config, config_from_data, load_config, upgrade_stored
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.planners.registry import get_planner
 
@@ -90,7 +90,8 @@ def main(argv=None) -> int:
         if not chosen:
             raise InputError(args.db, "planner", f"no judged {args.planner}/baseline pair")
         for pair in chosen.values():
-            stored = config_from_data(configurations[pair[1]["config_hash"]]["config"])
+            stored = config_from_data(
+                upgrade_stored(configurations[pair[1]["config_hash"]]["config"]))
             config = dataclasses.replace(stored, viz=overrides.viz)
             print(picture(pair, config, Path(args.out), args.frames), flush=True)
     except (InputError, StoreError) as exc:

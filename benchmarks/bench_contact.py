@@ -11,7 +11,7 @@ Bullet with the judge's engine settings (``evaluation.*``) and in MuJoCo (the re
 default and stiff), with quasi-static mechanics' prediction beside them. Printed: agreement of
 the boxes' classes with MuJoCo per family and engine, the single pushes against mechanics
 (all, and those more than 15 % from the tipping threshold), thrown boxes, the cases phi's
-jam measure reads as jams (`phi.jam`, ``dynamics.jam_depth``), squeeze forces and phi's jam
+jam measure reads as jams (`phi.jam`, ``phi_judge.jam_depth``), squeeze forces and phi's jam
 measure of each squeeze, realised drag friction and rise, and seconds per case. ``--json``
 writes the summary, ``--cases`` one row per case (JSON). ``--grid`` replaces the single-push
 grid (YAML, schema in docs/phi.md). Bad input (a grid, a configuration, a friction pair an

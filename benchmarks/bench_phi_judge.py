@@ -10,7 +10,7 @@ The paths (fixed, seeded): per initialization (kind:level:seed:angle of the prob
 generator), the baseline's straight paths at the push planner's grasp heights and the search's
 first-round draws (`aim.draw`, seeded like the search) that are feasible. They are built once
 with this checkout's code and saved; then each side judges all of them in the same K members
-of phi (``push_search.engine``) the way the search does (``judge_paths(..., complete=False)``),
+of phi (``phi_judge.engine``) the way the search does (``judge_paths(..., complete=False)``),
 in one process per side, one side at a time, this checkout and the reference (a git revision,
 checked out into a temporary worktree) alternating ``--repeats`` times. Printed: per
 initialization and in total the paths, each side's seconds (the best of the repeats) and the
@@ -40,9 +40,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def judge_config(config, members: int):
-    """``config`` with phi's engine and members as the search judges."""
-    return replace(config, dynamics=replace(config.dynamics, engine=config.push_search.engine),
-                   ensemble=replace(config.ensemble, members=members))
+    """``config`` with the judge in phi's members set to ``members``."""
+    return replace(config, phi_judge=replace(config.phi_judge, members=members))
 
 
 def search_paths(item: str, config):
@@ -70,7 +69,7 @@ def search_paths(item: str, config):
     for i in range(config.push_search.samples):
         start = names[i % len(starts)]
         frame, met = search.frame(start)
-        search.add(f"{start}/r0m{i}", start, draw(rng, frame, met, config.push))
+        search.add(f"{start}/r0m{i}", start, draw(rng, frame, met, config.push_search))
     return scene, {n: s.q for n, s in search.samples.items()}, candidate.trajectory.times
 
 
@@ -139,7 +138,7 @@ def main(argv=None) -> None:
     parser.add_argument("--repeats", type=int, default=1, help="alternations (default: 1)")
     parser.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
                         help="overrides for this checkout's side only, e.g. "
-                        "ensemble.judge_threads=2")
+                        "phi_judge.threads=2")
     parser.add_argument("--judge-only", metavar="PATHS", help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)

@@ -245,7 +245,7 @@ def main(argv=None) -> int:
     parser.add_argument("--cached-only", action="store_true")
     args = parser.parse_args(argv)
     try:
-        config = load_config(args.config, [*args.overrides, f"ensemble.members={args.members}",
+        config = load_config(args.config, [*args.overrides, f"phi_judge.members={args.members}",
                                            "dynamics.workers=0"])
         for db in args.db:
             if not Path(db).exists():
@@ -267,8 +267,8 @@ def main(argv=None) -> int:
 
 def report(plans, verdicts, config, args) -> None:
     """The pair agreement, the confusion matrices and the misread plans of one reading."""
-    print(f"\n=== phi {config.dynamics.engine}, {args.members} members, "
-          f"hold {config.ensemble.judge_hold_knots} knots")
+    print(f"\n=== phi {config.phi_judge.engine}, {args.members} members, "
+          f"hold {config.phi_judge.hold_knots} knots")
     for name, (agree, disagree, ties) in pair_agreement(plans, verdicts).items():
         n = agree + disagree
         low, high = wilson_interval(agree, n)

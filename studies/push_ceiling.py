@@ -10,9 +10,10 @@ The store holds the baseline's straight paths of each initialization (scene, ang
 grasp heights, judged by the robust judge (`docs/specs/candidates_probe_half.yaml`: 5 heights).
 Around each straight path ``--samples`` members of the push family are drawn
 (`planners.push.aim.draw`: aimed at the boxes the straight path meets with
-``push.aimed_chance``, else blind; seeded by ``[seed, initialization, height]``); the feasible
-ones are judged by the robust judge as the store's were (``--replays`` replays, its seed). Per
-initialization three plans are picked by that judgement (P(success), then expected grade):
+``push_search.aimed_chance``, else blind; seeded by ``[seed, initialization, height]``); the
+feasible ones are judged by the robust judge as the store's were (``--replays`` replays, its
+seed). Per initialization three plans are picked by that judgement (P(success), then
+expected grade):
 
 * ``default``: the straight path at the baseline's default height (no choice);
 * ``straight``: the best straight path (the straight lines' ceiling);
@@ -89,7 +90,7 @@ def ceiling_one(job) -> dict:
     scene = stored_scene(scene_name, config)
     context = PlanningContext(scene, config)
     geometry, clearance = context.arm(), context.clearance
-    ranges = config.push
+    ranges = config.push_search
     plans = {name: {**s, "member": None} for name, s in straights.items()}
     drawn = kept = 0
     for name, s in sorted(straights.items()):
@@ -136,7 +137,7 @@ def _phi_picks(scene, geometry, plans: dict, straights: dict, args) -> dict[str,
     among the straight paths (``phi_straight``) and among all (``phi_family``); every plan's
     phi verdict is kept in ``plans``."""
     config = load_config(None, [*args.overrides, *args.phi_overrides,
-                                f"ensemble.members={args.phi_members}"])
+                                f"phi_judge.members={args.phi_members}"])
     times = np.asarray(next(iter(plans.values()))["times"])
     verdicts = judge_paths(scene, {n: np.asarray(p["q"]) for n, p in plans.items()}, times,
                            config, geometry)
@@ -210,7 +211,7 @@ def main(argv=None) -> int:
     try:
         config = load_config(None, args.overrides)
         load_config(None, [*args.overrides, *args.phi_overrides,
-                           f"ensemble.members={max(args.phi_members, 1)}"])
+                           f"phi_judge.members={max(args.phi_members, 1)}"])
         for db in args.db:
             if not Path(db).exists():
                 raise InputError("<command line>", "--db", f"no such store {db}")

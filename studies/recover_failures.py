@@ -9,8 +9,8 @@ For every scene of the tier and every approach angle (all 14, as paper_protocol 
 the baseline's path is planned as a tier unit plans it (alone, no neighbour's IK solution).
 Where it fails (IK, the optimiser, or the dense shelf check), the push planner's other straight
 starts are planned as it plans them (`starts.planned_starts`: the grasp heights of
-``physics.grasp_heights`` and yaws of ``physics.approach_offsets``, then the line turned by
-``physics.recovery_turns``). Printed: per environment and clutter level, the failed angles, by
+``starts.grasp_heights`` and yaws of ``starts.approach_offsets``, then the line turned by
+``starts.recovery_turns``). Printed: per environment and clutter level, the failed angles, by
 status, how many have at least one start and of those how many only turned; the tier's own
 angles (the probe's 4, 6, 7, 9) apart.
 

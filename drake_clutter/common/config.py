@@ -2,13 +2,18 @@
 
 Each field has one comment line above it: what it is, its unit, and its source - a section or
 table of Kitaev et al., ICRA 2015 ("Sec. V", "Table II"), or "ours" where the paper leaves the
-value open. The sections of phi and the physics planner (`DynamicsConfig`, `PhysicsConfig`,
-`EnsembleConfig`) live in `physics_config` and are imported here. Why each value is what it is:
+value open. The sections of phi and the physics-based planners (`DynamicsConfig`, `PhysicsConfig`,
+`StartsConfig`, `PhiJudgeConfig`, `PushSearchConfig`) live in `physics_config` and are imported
+here. Why each value is what it is:
 one line per field in docs/decisions.md, the dated measurements under the field's dotted name
 (``physics.w_force``) in docs/log/decisions.md; ``drake-clutter config show`` prints the
 values. Load with ``load_config(path, overrides)``: a YAML file may set any subset of fields
 (unknown keys are errors), and ``overrides`` are ``section.field=value`` strings from the
 command line (``--set generator.bookshelf.board_width=0.8``), applied after the file.
+
+A field that moved to its owner's section (`RENAMED`) is refused under its old name with one
+line naming the new one; a stored configuration (an experiment store's) is read with its old
+names moved (`upgrade_stored`).
 """
 
 from __future__ import annotations
@@ -21,10 +26,10 @@ from typing import Literal
 from drake_clutter.common.accepts import SEED_MAX, bounded, check
 from drake_clutter.common.physics_config import (
     DynamicsConfig,
-    EnsembleConfig,
+    PhiJudgeConfig,
     PhysicsConfig,
-    PushConfig,
     PushSearchConfig,
+    StartsConfig,
 )
 from drake_clutter.common.typed_yaml import (
     InputError,
@@ -400,11 +405,11 @@ class Config:
     dynamics: DynamicsConfig = field(default_factory=DynamicsConfig)
     # the physics-based planner, section; Sec. V
     physics: PhysicsConfig = field(default_factory=PhysicsConfig)
-    # phi's ensemble of perturbed rollouts (beyond the paper), section; ours
-    ensemble: EnsembleConfig = field(default_factory=EnsembleConfig)
-    # the push path family's draws (beyond the paper), section; ours
-    push: PushConfig = field(default_factory=PushConfig)
-    # the push planner's sampling search (beyond the paper), section; ours
+    # the straight starts of the physics-based planners (beyond the paper), section; ours
+    starts: StartsConfig = field(default_factory=StartsConfig)
+    # the judge in phi: its engine, members' worlds and readings (beyond the paper), section; ours
+    phi_judge: PhiJudgeConfig = field(default_factory=PhiJudgeConfig)
+    # the push planner: its path family and search (beyond the paper), section; ours
     push_search: PushSearchConfig = field(default_factory=PushSearchConfig)
     # Meshcat replays of plans (beyond the paper), section; ours
     viz: VizConfig = field(default_factory=VizConfig)
@@ -428,6 +433,47 @@ class Config:
              f"(Drake's AutoDiffXd derivatives under Hunt-Crossley contact did not match "
              f"themselves or finite differences)"),
         ]
+
+
+_STARTS = ("grasp_heights", "approach_offsets", "recovery_turns", "press_normal_z",
+           "press_tolerance", "side_tolerance", "press_substeps")
+_FAMILY = ("lateral", "vertical_low", "vertical_high", "knot_low", "knot_high", "progress_low",
+           "progress_high", "closed_chance", "vias", "aimed_chance", "own_side_chance",
+           "aside_chance", "gripper_half_width", "aim_standoff", "aim_slack")
+_MEMBERS = ("seed", "position", "yaw", "mass", "friction", "bullet_friction_member")
+# Fields that moved to the section of their owner: old dotted name -> new dotted name.
+RENAMED: dict[str, str] = {
+    **{f"physics.{f}": f"starts.{f}" for f in _STARTS},
+    **{f"push.{f}": f"push_search.{f}" for f in _FAMILY},
+    **{f"ensemble.{f}": f"phi_judge.{f}" for f in _MEMBERS},
+    "ensemble.members": "phi_judge.members", "push_search.members": "phi_judge.members",
+    "push_search.engine": "phi_judge.engine",
+    "push_search.veto_members": "phi_judge.veto_members",
+    "ensemble.judge_hold_knots": "phi_judge.hold_knots",
+    "ensemble.judge_threads": "phi_judge.threads", "dynamics.jam_depth": "phi_judge.jam_depth",
+}
+# Stored configurations from before the moves also held ensemble.members (the judge in phi's
+# members outside the search), which the search's push_search.members replaced: read the latter.
+_STORED_DROPPED = ("ensemble.members",)
+
+
+def upgrade_stored(data: dict) -> dict:
+    """A stored configuration's plain data with the fields of `RENAMED` under their new names
+    (a copy; data in today's layout comes back equal)."""
+    out = {k: dict(v) if isinstance(v, dict) else v for k, v in data.items()}
+    for old, new in RENAMED.items():
+        section, name = old.split(".")
+        if name not in (out.get(section) or {}):
+            continue
+        value = out[section].pop(name)
+        if old in _STORED_DROPPED:
+            continue
+        new_section, new_name = new.split(".")
+        out.setdefault(new_section, {})[new_name] = value
+    for section in ("ensemble", "push"):
+        if section in out and not out[section]:
+            del out[section]
+    return out
 
 
 def config_to_data(config: Config) -> dict:
@@ -464,6 +510,8 @@ def config_from_data(user, overrides: list[str] | tuple = (),
         key, sep, value = item.partition("=")
         if not sep:
             raise ConfigError("<command line>", item, "expected key=value")
+        if key.strip() in RENAMED:
+            raise ConfigError("<command line>", key.strip(), f"renamed to {RENAMED[key.strip()]}")
         data = apply_override(data, key.strip(), value, error_cls=ConfigError)
     return from_data(Config, data, file=file or "<command line>", error_cls=ConfigError)
 
@@ -481,8 +529,18 @@ def _merge(base: dict, user: dict, file, prefix: str = "") -> dict:
     out = dict(base)
     for key, value in user.items():
         where = f"{prefix}.{key}" if prefix else str(key)
+        if where in RENAMED:
+            raise ConfigError(file, where, f"renamed to {RENAMED[where]}")
+        if key not in base and isinstance(value, dict):
+            for name in value:  # a section whose fields moved: name the first one's new home
+                if f"{where}.{name}" in RENAMED:
+                    raise ConfigError(file, f"{where}.{name}",
+                                      f"renamed to {RENAMED[f'{where}.{name}']}")
         if key not in base:
-            raise ConfigError(file, where, f"unknown key (known keys: {', '.join(base)})")
+            moved = sorted({new.split(".")[0] for old, new in RENAMED.items()
+                            if old.startswith(f"{where}.")})
+            hint = f"; its fields moved to {', '.join(moved)}" if moved else ""
+            raise ConfigError(file, where, f"unknown key (known keys: {', '.join(base)}){hint}")
         if isinstance(base[key], dict) and isinstance(value, dict):
             out[key] = _merge(base[key], value, file, where)
         else:

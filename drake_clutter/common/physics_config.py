@@ -1,7 +1,7 @@
 """The physics planners' sections of the one configuration (`config.Config`): phi as iLQR's
-dynamics (``dynamics``), Sec. V's planner (``physics``, Tables I and II), phi's ensemble
-(``ensemble``) and the push planner's family and search (``push``, ``push_search``; beyond the
-paper).
+dynamics (``dynamics``), Sec. V's planner (``physics``, Tables I and II), and beyond the paper
+the straight starts both physics-based planners use (``starts``), the judge in phi
+(``phi_judge``) and the push planner's family and search (``push_search``).
 
 The same rule as in `config`: each field has one comment line above it (what, unit, source:
 a section or table of the paper, or "ours"); why each value is what it is: one line per field
@@ -68,8 +68,6 @@ class DynamicsConfig:
     edge_sphere_spacing: float = bounded(0.02, ge=0.0)
     # depth of phi's board collision box under the edge spheres ("edges": none tunnel), m; ours
     edge_board_depth: float = bounded(0.1, gt=0.0)
-    # one knot's commanded approach into a blocked box read as a jam (phi.jam), m; ours
-    jam_depth: float = bounded(0.001, gt=0.0)
     # bodies closer than this at a sub-step's start may interact in that step, m; ours
     interaction_margin: float = bounded(1e-3, gt=0.0)
     # largest state change for which a resting box reuses its Jacobian block, m, rad, m/s; ours
@@ -136,8 +134,6 @@ class PhysicsConfig:
     w_grp_open: float = bounded(1.0, ge=0.0)
     # weight of c_dynamic in the Sec. V-A pre-processing (as w_static_hull), unitless; ours
     w_dynamic: float = bounded(80.0, ge=0.0)
-    # up component of a contact normal (box to arm) beyond which the arm presses, unitless; ours
-    press_normal_z: float = bounded(0.5, ge=0.0, lt=1.0)
     # weight of c_match in the Sec. V-B post-processing, unitless; ours
     w_match: float = bounded(1.0, ge=0.0)
     # weight of c_match_vel in the Sec. V-B post-processing, unitless; ours
@@ -176,18 +172,6 @@ class PhysicsConfig:
     keep_open: bool = True
     # the plan is the best in one phi of the baseline, pre- and post-processed paths, flag; ours
     select_in_phi: bool = True
-    # grasp heights also tried per angle (the first clear start is taken), of target height; ours
-    grasp_heights: tuple[float, ...] = bounded((0.6, 0.7, 0.8, 0.9), gt=0.0, le=1.0)
-    # approach angle offsets also tried at every grasp height (the first clear start), rad; ours
-    approach_offsets: tuple[float, ...] = bounded((), ge=-0.5, le=0.5)
-    # yaw turns toward alpha = 0 the push planner tries when no start plans at the angle, rad; ours
-    recovery_turns: tuple[float, ...] = bounded((0.1, 0.2, 0.3), gt=0.0, le=0.5)
-    # deepest press (physics.press_normal_z) a straight start counts as none, m; ours
-    press_tolerance: float = bounded(0.0005, ge=0.0)
-    # deepest entry into a non-target box's side a straight start counts as none, m; ours
-    side_tolerance: float = bounded(0.005, ge=0.0)
-    # configurations per knot interval the press check reads, count; ours
-    press_substeps: int = bounded(4, ge=1, le=100)
     # iLQR iterations of the Sec. V-B post-processing, count; ours
     post_iterations: int = bounded(40, ge=0, le=100000)
     # largest arm-point travel between swept-cost samples (0: fixed counts alone), m; ours
@@ -240,11 +224,38 @@ class PhysicsConfig:
 
 
 @dataclass(frozen=True)
-class EnsembleConfig:
-    """phi's ensemble: a plan scored over K perturbed rollouts (beyond the paper): all ours."""
+class StartsConfig:
+    """The straight starts of the physics-based planners (beyond the paper): the baseline's path
+    at other grasp heights and yaws, the check that keeps a start off the boxes, and the turns
+    tried where no start plans at an angle. All ours."""
 
-    # members the judge in phi reads a plan in (push_search sets its own), count; ours
-    members: int = bounded(1, ge=1, le=256)
+    # grasp heights also tried per angle (the first clear start is taken), of target height; ours
+    grasp_heights: tuple[float, ...] = bounded((0.6, 0.7, 0.8, 0.9), gt=0.0, le=1.0)
+    # approach angle offsets also tried at every grasp height (the first clear start), rad; ours
+    approach_offsets: tuple[float, ...] = bounded((), ge=-0.5, le=0.5)
+    # yaw turns toward alpha = 0 tried when no start plans at the angle (push planner), rad; ours
+    recovery_turns: tuple[float, ...] = bounded((0.1, 0.2, 0.3), gt=0.0, le=0.5)
+    # up component of a contact normal (box to arm) beyond which the arm presses, unitless; ours
+    press_normal_z: float = bounded(0.5, ge=0.0, lt=1.0)
+    # deepest press (starts.press_normal_z) a straight start counts as none, m; ours
+    press_tolerance: float = bounded(0.0005, ge=0.0)
+    # deepest entry into a non-target box's side a straight start counts as none, m; ours
+    side_tolerance: float = bounded(0.005, ge=0.0)
+    # configurations per knot interval the press check reads, count; ours
+    press_substeps: int = bounded(4, ge=1, le=100)
+
+
+@dataclass(frozen=True)
+class PhiJudgeConfig:
+    """The judge in phi (beyond the paper): a plan rolled out in phi's ensemble of perturbed
+    worlds and read into the judge's classes; its engine, members and readings. All ours."""
+
+    # phi's engine the judge in phi rolls plans out in (gate measured in MuJoCo), choice; ours
+    engine: Literal["drake", "mujoco"] = "mujoco"
+    # members a plan is judged in (member 0 the scene; the search scores every path), count; ours
+    members: int = bounded(4, ge=1, le=256)
+    # held-out members (the next ones) a bent path must win on to replace its start, count; ours
+    veto_members: int = bounded(4, ge=1, le=256)
     # seed of the members' worlds (member k draws from [seed, k]), integer; ours
     seed: int = bounded(1000, ge=0, le=SEED_MAX)
     # half-range of each box's initial shift along x and y (uniform), m; ours
@@ -258,65 +269,18 @@ class EnsembleConfig:
     # member 1 pairs friction as Bullet does (world.friction_as_bullet), flag; ours
     bullet_friction_member: bool = True
     # knots the judge in phi holds the arm after Delta before reading the boxes, count; ours
-    judge_hold_knots: int = bounded(5, ge=0, le=100)
+    hold_knots: int = bounded(5, ge=0, le=100)
     # threads rolling out the paths of one member's MuJoCo phi at once (1: in turn), count; ours
-    judge_threads: int = bounded(1, ge=1, le=64)
-
-
-@dataclass(frozen=True)
-class PushConfig:
-    """The push path family's draws (beyond the paper): all ours."""
-
-    # half-range of a via-point's sideways offset from the straight path (uniform), m; ours
-    lateral: float = bounded(0.10, ge=0.0)
-    # lowest vertical offset of a via-point above the straight path, m; ours
-    vertical_low: float = bounded(-0.01, le=0.0)
-    # highest vertical offset of a via-point above the straight path, m; ours
-    vertical_high: float = bounded(0.06, ge=0.0)
-    # earliest via-point time, a fraction of the path's duration, unitless; ours
-    knot_low: float = bounded(0.2, gt=0.0, lt=1.0)
-    # latest via-point time, a fraction of the path's duration, unitless; ours
-    knot_high: float = bounded(0.9, gt=0.0, lt=1.0)
-    # least progress along the straight path at a via-point, a fraction, unitless; ours
-    progress_low: float = bounded(0.2, ge=0.0, le=1.0)
-    # most progress along the straight path at a via-point, a fraction, unitless; ours
-    progress_high: float = bounded(0.95, ge=0.0, le=1.0)
-    # chance that a drawn member keeps the gripper closed until a drawn time, unitless; ours
-    closed_chance: float = bounded(0.3, ge=0.0, le=1.0)
-    # via-points per drawn member, count; ours
-    vias: int = bounded(2, ge=1, le=10)
-    # chance that a member is aimed at a box the straight path meets (else drawn blind); ours
-    aimed_chance: float = bounded(1.0, ge=0.0, le=1.0)
-    # chance that an aimed move pushes or passes the box toward its own side of the line; ours
-    own_side_chance: float = bounded(0.75, ge=0.0, le=1.0)
-    # chance that an aimed move pushes the box aside (else it goes around it), unitless; ours
-    aside_chance: float = bounded(0.5, ge=0.0, le=1.0)
-    # half the closed gripper's width across the approach (PR2 palm, ~0.05), m; ours
-    gripper_half_width: float = bounded(0.05, gt=0.0)
-    # how far before a box's near face an aimed move starts sideways, m; ours
-    aim_standoff: float = bounded(0.03, ge=0.0)
-    # range of the uniform extra clearance and depth of an aimed move, m; ours
-    aim_slack: float = bounded(0.04, ge=0.0)
-
-    def relations(self):
-        """(dotted field, holds, what it must be) between this section's fields."""
-        return [("knot_high", self.knot_low <= self.knot_high,
-                 f"at least push.knot_low ({self.knot_low:g})"),
-                ("progress_high", self.progress_low <= self.progress_high,
-                 f"at least push.progress_low ({self.progress_low:g})")]
-
+    threads: int = bounded(1, ge=1, le=64)
+    # one knot's commanded approach into a blocked box read as a jam (phi.jam), m; ours
+    jam_depth: float = bounded(0.001, gt=0.0)
 
 
 @dataclass(frozen=True)
 class PushSearchConfig:
-    """The push planner's sampling search over the push family (beyond the paper): all ours."""
+    """The push planner (beyond the paper): its path family's draws and its sampling search over
+    them. All ours."""
 
-    # phi's engine for the search's score, the judge in phi (gate measured in MuJoCo), choice; ours
-    engine: Literal["drake", "mujoco"] = "mujoco"
-    # ensemble members the search scores every path in (member 0 the scene), count; ours
-    members: int = bounded(4, ge=1, le=256)
-    # held-out members (the next ones) a bent path must win on to replace its start, count; ours
-    veto_members: int = bounded(4, ge=1, le=256)
     # family members drawn in the first round, over all starts, count; ours
     samples: int = bounded(12, ge=0, le=100000)
     # rounds of the search (the later ones perturb the best bent paths), count; ours
@@ -351,3 +315,40 @@ class PushSearchConfig:
     seed: int = bounded(0, ge=0, le=SEED_MAX)
     # wall time of the push planner on one initialization, starts to veto (None: no limit), s; ours
     time_budget: float | None = bounded(300.0, gt=0.0, le=86400.0)
+    # half-range of a via-point's sideways offset from the straight path (uniform), m; ours
+    lateral: float = bounded(0.10, ge=0.0)
+    # lowest vertical offset of a via-point above the straight path, m; ours
+    vertical_low: float = bounded(-0.01, le=0.0)
+    # highest vertical offset of a via-point above the straight path, m; ours
+    vertical_high: float = bounded(0.06, ge=0.0)
+    # earliest via-point time, a fraction of the path's duration, unitless; ours
+    knot_low: float = bounded(0.2, gt=0.0, lt=1.0)
+    # latest via-point time, a fraction of the path's duration, unitless; ours
+    knot_high: float = bounded(0.9, gt=0.0, lt=1.0)
+    # least progress along the straight path at a via-point, a fraction, unitless; ours
+    progress_low: float = bounded(0.2, ge=0.0, le=1.0)
+    # most progress along the straight path at a via-point, a fraction, unitless; ours
+    progress_high: float = bounded(0.95, ge=0.0, le=1.0)
+    # chance that a drawn member keeps the gripper closed until a drawn time, unitless; ours
+    closed_chance: float = bounded(0.3, ge=0.0, le=1.0)
+    # via-points per drawn member, count; ours
+    vias: int = bounded(2, ge=1, le=10)
+    # chance that a member is aimed at a box the straight path meets (else drawn blind); ours
+    aimed_chance: float = bounded(1.0, ge=0.0, le=1.0)
+    # chance that an aimed move pushes or passes the box toward its own side of the line; ours
+    own_side_chance: float = bounded(0.75, ge=0.0, le=1.0)
+    # chance that an aimed move pushes the box aside (else it goes around it), unitless; ours
+    aside_chance: float = bounded(0.5, ge=0.0, le=1.0)
+    # half the closed gripper's width across the approach (PR2 palm, ~0.05), m; ours
+    gripper_half_width: float = bounded(0.05, gt=0.0)
+    # how far before a box's near face an aimed move starts sideways, m; ours
+    aim_standoff: float = bounded(0.03, ge=0.0)
+    # range of the uniform extra clearance and depth of an aimed move, m; ours
+    aim_slack: float = bounded(0.04, ge=0.0)
+
+    def relations(self):
+        """(dotted field, holds, what it must be) between this section's fields."""
+        return [("knot_high", self.knot_low <= self.knot_high,
+                 f"at least push_search.knot_low ({self.knot_low:g})"),
+                ("progress_high", self.progress_low <= self.progress_high,
+                 f"at least push_search.progress_low ({self.progress_low:g})")]

@@ -59,7 +59,7 @@ def simulate(engine: str, scenario: Scenario, config: Config) -> Trace:
 @dataclass
 class CaseResult:
     """A scenario's traces and box outcomes per engine, and the jam reading's threshold (m,
-    ``dynamics.jam_depth``)."""
+    ``phi_judge.jam_depth``)."""
 
     scenario: Scenario
     traces: dict[str, Trace]
@@ -75,7 +75,7 @@ class CaseResult:
         return self.kinds(engine) == self.kinds(reference)
 
     def jams(self) -> bool:
-        """phi's jam measure reads a jam on some box (``dynamics.jam_depth``)."""
+        """phi's jam measure reads a jam on some box (``phi_judge.jam_depth``)."""
         return "phi" in self.outcomes and any(o.jam >= self.jam_depth
                                               for o in self.outcomes["phi"])
 
@@ -93,7 +93,7 @@ def run_cases(scenarios: Sequence[Scenario], config: Config, engines: Sequence[s
         outcomes = {engine: box_outcomes(scenario, trace, config.evaluation.max_tilt,
                                          config.evaluation.force_window)
                     for engine, trace in traces.items()}
-        results.append(CaseResult(scenario, traces, outcomes, config.dynamics.jam_depth))
+        results.append(CaseResult(scenario, traces, outcomes, config.phi_judge.jam_depth))
         if progress is not None:
             progress()
     return results

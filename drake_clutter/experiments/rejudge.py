@@ -16,7 +16,13 @@ import time
 import traceback
 from collections.abc import Sequence
 
-from drake_clutter.common.config import Config, ConfigError, config_from_data, config_to_data
+from drake_clutter.common.config import (
+    Config,
+    ConfigError,
+    config_from_data,
+    config_to_data,
+    upgrade_stored,
+)
 from drake_clutter.common.typed_yaml import from_data
 
 JUDGE_SECTIONS = ("evaluation", "report", "viz")  # settings no planner reads
@@ -35,8 +41,9 @@ def check_overrides(overrides: Sequence[str], file: str = "<command line>") -> N
 
 def changed_config(data: dict, overrides: Sequence[str]) -> Config:
     """A stored configuration (`config_to_data`'s data; fields added since it was stored take
-    their defaults) with ``overrides`` applied."""
-    return config_from_data(data, overrides)
+    their defaults, fields moved since are read under their new names: `upgrade_stored`) with
+    ``overrides`` applied."""
+    return config_from_data(upgrade_stored(data), overrides)
 
 
 def rejudge_unit(task: dict) -> dict:

@@ -223,27 +223,27 @@ def path_depths(geometry: ArmGeometry, q: np.ndarray, substeps: int, normal_z: f
 
 def box_depths(geometry: ArmGeometry, paths: dict, config: Config, target: str) -> dict:
     """Each knot path's (T + 1, 8) (press, side) depths (m; `geometry.path_depths` at
-    ``physics.press_substeps`` configurations per interval, normals above
-    ``physics.press_normal_z``; sides of every box but ``target``), the boxes where
+    ``starts.press_substeps`` configurations per interval, normals above
+    ``starts.press_normal_z``; sides of every box but ``target``), the boxes where
     ``geometry`` last put them, by key."""
-    return {k: path_depths(geometry, np.asarray(q, dtype=float), config.physics.press_substeps,
-                           config.physics.press_normal_z, (target,))
+    return {k: path_depths(geometry, np.asarray(q, dtype=float), config.starts.press_substeps,
+                           config.starts.press_normal_z, (target,))
             for k, q in paths.items()}
 
 
 def contact_flags(depths: dict, config: Config) -> dict:
     """Per key of ``depths`` (`box_depths`' (press, side) in m): (whether the path presses on a
-    box's top deeper than ``physics.press_tolerance``, whether it enters a non-target box's side
-    deeper than ``physics.side_tolerance``). A path with neither is clear of the boxes."""
-    physics = config.physics
-    return {k: (press > physics.press_tolerance, side > physics.side_tolerance)
+    box's top deeper than ``starts.press_tolerance``, whether it enters a non-target box's side
+    deeper than ``starts.side_tolerance``). A path with neither is clear of the boxes."""
+    starts = config.starts
+    return {k: (press > starts.press_tolerance, side > starts.side_tolerance)
             for k, (press, side) in depths.items()}
 
 
 def clear_paths(geometry: ArmGeometry, paths: dict, config: Config, target: str) -> list:
     """The keys of ``paths`` (knot paths (T + 1, 8)), in order, whose path neither presses on
-    a box's top deeper than ``physics.press_tolerance`` nor enters a non-target box's side
-    deeper than ``physics.side_tolerance`` (`box_depths`, `contact_flags`)."""
+    a box's top deeper than ``starts.press_tolerance`` nor enters a non-target box's side
+    deeper than ``starts.side_tolerance`` (`box_depths`, `contact_flags`)."""
     flags = contact_flags(box_depths(geometry, paths, config, target), config)
     return [key for key, found in flags.items() if not any(found)]
 

@@ -2,9 +2,9 @@
 read over K perturbed scenes instead of one.
 
 Member 0 is the scene as it is; member k >= 1 is the scene with every box moved and its mass
-and friction scaled (`scene.perturbation.perturb_boxes` over the ``ensemble`` ranges, seeded
-with ``[ensemble.seed, k]``: the planner's seeds, never the judge's); member 1 pairs friction as
-Bullet does when ``ensemble.bullet_friction_member`` is set. The judge in phi rolls out
+and friction scaled (`scene.perturbation.perturb_boxes` over the ``phi_judge`` ranges, seeded
+with ``[phi_judge.seed, k]``: the planner's seeds, never the judge's); member 1 pairs friction as
+Bullet does when ``phi_judge.bullet_friction_member`` is set. The judge in phi rolls out
 in these worlds.
 """
 
@@ -22,7 +22,7 @@ def member_world(scene: Scene, config: Config, member: int) -> tuple[Scene, Conf
     docstring)."""
     if member == 0:
         return scene, config
-    ens = config.ensemble
+    ens = config.phi_judge
     ranges = BoxPerturbation(ens.position, ens.yaw, ens.mass, ens.friction)
     world = perturb_boxes(scene, ranges, [ens.seed, member])
     if member == 1 and ens.bullet_friction_member:

@@ -2,14 +2,14 @@
 
 The judge replays a plan in Bullet and sorts it into Sec. III's classes; a planner may not
 (Bullet and the mesh arm are the judge's alone). This reads the same classes on phi: the plan
-rolled out with its held knots after Delta (``ensemble.judge_hold_knots``) in each of phi's
+rolled out with its held knots after Delta (``phi_judge.hold_knots``) in each of phi's
 ensemble members (`members.member_world`: member 0 the scene, members k >= 1 every box moved
-and its mass and friction scaled from the planner's seeds ``[ensemble.seed, k]``, never the
+and its mass and friction scaled from the planner's seeds ``[phi_judge.seed, k]``, never the
 judge's), and in each member:
 
 * **kinematic failure** - the plan leaves the PR2's joint or speed limits
   (`trajectory.plan_limit_violation`, the judge's own check), phi fails to roll it out, or
-  phi's jam measure reaches ``dynamics.jam_depth`` (`phi.jam`: the arm's commanded approach
+  phi's jam measure reaches ``phi_judge.jam_depth`` (`phi.jam`: the arm's commanded approach
   into a box a rigid world would not let move, largest knot of the path and the hold);
 * **objects falling** - a box's centre off the board or below its top
   (`grading.off_the_board`) at the end of the hold;
@@ -20,7 +20,7 @@ judge's), and in each member:
 
 with the judge's precedence (`grading.classify`). Each member's `PhiFindings` (what the rollout
 showed, the press on a box's top recorded beside the jam) are kept beside its reading, so the
-same rollouts can be read again, e.g. under another ``dynamics.jam_depth``
+same rollouts can be read again, e.g. under another ``phi_judge.jam_depth``
 (`PhiVerdict.from_findings`). Over the K members: P(success) and the expected grade class, as the
 robust judge summarises its replays.
 """
@@ -31,13 +31,13 @@ import math
 import queue
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 
-from drake_clutter.common.config import Config, EnsembleConfig, EvaluationConfig
+from drake_clutter.common.config import Config, EvaluationConfig, PhiJudgeConfig
 from drake_clutter.phi.dynamics import initial_state, make_spec
 from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import prune
@@ -139,12 +139,12 @@ class PhiReading:
 
 def kinematic_reason(findings: PhiFindings, config: Config) -> str:
     """The kinematic failure the findings show ("" for none): a limit violation, a failed
-    rollout, or a jam of at least ``dynamics.jam_depth``."""
+    rollout, or a jam of at least ``phi_judge.jam_depth``."""
     if findings.limit:
         return findings.limit
     if findings.failed:
         return "phi failed on the rollout"
-    if findings.jam is not None and findings.jam >= config.dynamics.jam_depth:
+    if findings.jam is not None and findings.jam >= config.phi_judge.jam_depth:
         return f"jam {findings.jam * 1e3:.1f} mm"
     return ""
 
@@ -152,7 +152,7 @@ def kinematic_reason(findings: PhiFindings, config: Config) -> str:
 def member_margin(findings: PhiFindings, config: Config) -> float:
     """How near one member's findings came to the classes' limits, unitless, lower is better:
     the largest of the quantities the classes threshold, each over its limit (the jam over
-    ``dynamics.jam_depth``, the largest obstacle tilt over ``evaluation.max_tilt``, a box's
+    ``phi_judge.jam_depth``, the largest obstacle tilt over ``evaluation.max_tilt``, a box's
     approach to the board's edge, the target's distance from the pre-grasp zone, the deepest
     intrusion into it over ``evaluation.intrusion_tolerance``), so above 1 where one of them
     decides a failure; infinite for a plan out of the limits or a failed rollout. A quantity
@@ -161,7 +161,7 @@ def member_margin(findings: PhiFindings, config: Config) -> float:
         return math.inf
     ratios = [0.0]
     if findings.jam is not None:
-        ratios.append(findings.jam / config.dynamics.jam_depth)
+        ratios.append(findings.jam / config.phi_judge.jam_depth)
     if findings.tilt is not None:
         ratios.append(findings.tilt / config.evaluation.max_tilt)
     ratios += [r for r in (findings.edge, findings.zone) if r is not None]
@@ -322,8 +322,8 @@ def plan_checks(scene: Scene, geometry: ArmGeometry, q: np.ndarray, times: np.nd
     violation = plan_limit_violation(Trajectory(np.asarray(times, float), q), config.evaluation)
     if not press:
         return violation, None
-    press, _ = path_depths(geometry, q, config.physics.press_substeps,
-                           config.physics.press_normal_z, (scene.target,))
+    press, _ = path_depths(geometry, q, config.starts.press_substeps,
+                           config.starts.press_normal_z, (scene.target,))
     return violation, float(press)
 
 
@@ -349,7 +349,7 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
                     knot_time: float, stop: float | None = None,
                     deadline: float | None = None) -> dict[str, JudgedRollout]:
     """Each knot path (T + 1, 8) rolled out in one phi of ``world`` (a member's scene, capsule
-    arm, ``config``'s engine) and held at its last knot for ``ensemble.judge_hold_knots``
+    arm, ``config``'s engine) and held at its last knot for ``phi_judge.hold_knots``
     knots, its jam measured at every knot; one phi for all paths, pruned to them
     (`pruning.prune`), its boxes settled once under the first path's start. A path whose
     rollout reaches a frozen box is rolled out again in a phi with those boxes kept, up to
@@ -359,7 +359,7 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
     not yet rolled out read `UNFINISHED`."""
     if past(deadline):
         return dict.fromkeys(paths, UNFINISHED)
-    dyn = config.dynamics
+    dyn = replace(config.dynamics, engine=config.phi_judge.engine)
     states = scene_box_states(world)
     first, *others = (np.asarray(q, float) for q in paths.values())
     kept = set(prune(world, first, states, dyn, config.world, "capsules", tuple(others)).kept)
@@ -375,7 +375,7 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
             x0 = phi.settle(initial_state(spec.layout, first[0], states))
         except (RuntimeError, ValueError):  # Drake's solver errors while settling
             return {**out, **dict.fromkeys(todo, JudgedRollout(None, None))}
-        out.update(_rollouts(phi, x0, todo, config.ensemble, stop, deadline))
+        out.update(_rollouts(phi, x0, todo, config.phi_judge, stop, deadline))
         touched = set().union(*(out[name].touched for name in todo))
         if not touched or round_ == dyn.prune_rounds:
             break
@@ -384,12 +384,12 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
     return {name: out[name] for name in paths}
 
 
-def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], ensemble: EnsembleConfig,
+def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], phi_judge: PhiJudgeConfig,
               stop: float | None, deadline: float | None = None) -> dict[str, JudgedRollout]:
-    """`_judged_rollout` of every path, in ``ensemble.judge_threads`` threads where phi can be
+    """`_judged_rollout` of every path, in ``phi_judge.threads`` threads where phi can be
     cloned (MuJoCo), each thread stepping its own clone: the same rollouts as in turn."""
-    hold = ensemble.judge_hold_knots
-    threads = min(ensemble.judge_threads, len(paths))
+    hold = phi_judge.hold_knots
+    threads = min(phi_judge.threads, len(paths))
     if threads <= 1 or not hasattr(phi, "clone"):
         return {name: _judged_rollout(phi, x0, np.asarray(q, float), hold, stop, deadline)
                 for name, q in paths.items()}
@@ -441,7 +441,7 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
                 geometry: ArmGeometry, pool=None, members: Sequence[int] | None = None,
                 complete: bool = True, deadline: float | None = None) -> dict[str, PhiVerdict]:
     """Each knot path's (T + 1, 8 each, knots at ``times`` s) verdict over phi's ensemble members
-    ``members`` (default: 0 .. ``ensemble.members`` - 1); all paths of one call meet the same
+    ``members`` (default: 0 .. ``phi_judge.members`` - 1); all paths of one call meet the same
     members, each member's phi pruned for all of them and rolled out from each path's own start
     (`judged_rollouts`). ``complete=False`` reads the same classes with less work: a path out
     of the limits is not rolled out, a rollout stops once its jam reads a kinematic failure
@@ -455,7 +455,7 @@ def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, c
         return {}
     checks = {name: plan_checks(scene, geometry, q, times, config, press=complete)
               for name, q in paths.items()}
-    order = list(range(config.ensemble.members) if members is None else members)
+    order = list(range(config.phi_judge.members) if members is None else members)
     jobs = [(scene, paths, np.asarray(times, float), config, checks, m, complete, deadline)
             for m in order]
     if pool is None:
@@ -481,7 +481,7 @@ def _member_found(job, geometry: ArmGeometry) -> dict[str, PhiFindings]:
     if past(deadline):
         return {}
     decided = set() if complete else {name for name, (limit, _) in checks.items() if limit}
-    stop = None if complete else config.dynamics.jam_depth
+    stop = None if complete else config.phi_judge.jam_depth
     world, cfg = member_world(scene, config, member)
     rolled = judged_rollouts(world, {n: q for n, q in paths.items() if n not in decided}, cfg,
                              float(np.diff(times[:2])[0]), stop, deadline)

@@ -1,6 +1,6 @@
 """The straight starts of an approach angle (beyond the paper): the baseline's path at each
-grasp height of ``physics.grasp_heights`` and at the angle turned by each yaw offset of
-``physics.approach_offsets``, beside the baseline's own (``baseline.grasp_height_fraction``).
+grasp height of ``starts.grasp_heights`` and at the angle turned by each yaw offset of
+``starts.approach_offsets``, beside the baseline's own (``baseline.grasp_height_fraction``).
 
 Sec. IV fixes the grasp height; which height keeps off the boxes beside the target depends on
 the scene, so the planners that see the boxes (the push planner, and Sec. V's height choice)
@@ -9,7 +9,7 @@ same IK seeds (`baseline.plan_angle`), named in records by `start_key`.
 
 Where no start plans at the angle (the baseline's path fails IK, the optimiser or the dense
 shelf check at every height), `turned_starts` turns the line toward the shelf's axis
-(``physics.recovery_turns``) until one does: at the steep angles a refrigerator's side wall
+(``starts.recovery_turns``) until one does: at the steep angles a refrigerator's side wall
 leaves no start pose or pre-grasp pose clear of the shelf.
 """
 
@@ -36,14 +36,14 @@ def start_key(fraction: float, offset: float) -> str:
 def height_candidates(context: PlanningContext, candidate: Candidate,
                       deadline: Deadline | None = None) -> dict[tuple[float, float], Candidate]:
     """The start ``candidate`` (the baseline's, at ``baseline.grasp_height_fraction``) and the
-    baseline planned at each fraction of ``physics.grasp_heights`` at the same angle, then at
-    the angle turned by each yaw offset of ``physics.approach_offsets`` (rad) at every
+    baseline planned at each fraction of ``starts.grasp_heights`` at the same angle, then at
+    the angle turned by each yaw offset of ``starts.approach_offsets`` (rad) at every
     fraction, by (fraction, offset) in that order (the start's first); only candidates with a
     trajectory ("ok"): a ``candidate`` that failed is left out and the others are planned all
     the same. The solvers per fraction are the context's (`baseline_at`). Once ``deadline``
     has passed no further start is planned (each plan is an indivisible step)."""
     config = context.config
-    offsets = [0.0] + [o for o in config.physics.approach_offsets if o != 0.0]
+    offsets = [0.0] + [o for o in config.starts.approach_offsets if o != 0.0]
     keys = [(f, o) for o in offsets for f in _fractions(config)]
     first = (config.baseline.grasp_height_fraction, 0.0)
     out = {first: candidate} if candidate.ok else {}
@@ -53,13 +53,13 @@ def height_candidates(context: PlanningContext, candidate: Candidate,
 def turned_starts(context: PlanningContext, candidate: Candidate,
                   deadline: Deadline | None = None) -> dict[tuple[float, float], Candidate]:
     """The straight starts of a failed ``candidate``'s angle turned toward alpha = 0 by each
-    turn of ``physics.recovery_turns`` (rad) in order, at every fraction as in
+    turn of ``starts.recovery_turns`` (rad) in order, at every fraction as in
     `height_candidates`: those of the first turn at which any plans, by (fraction, offset),
     offset = -sign(alpha) x turn (rad); empty if none does or ``deadline`` passes first."""
     config = context.config
     sign = float(np.sign(candidate.alpha))
     contexts: dict = {}
-    for turn in config.physics.recovery_turns:
+    for turn in config.starts.recovery_turns:
         keys = [(f, -sign * turn) for f in _fractions(config)]
         out = _plan_starts(context, candidate, keys, deadline, contexts)
         if out:
@@ -78,9 +78,9 @@ def planned_starts(context: PlanningContext, candidate: Candidate,
 
 
 def _fractions(config) -> list[float]:
-    """The grasp height fractions of the starts: the baseline's, then ``physics.grasp_heights``."""
+    """The grasp height fractions of the starts: the baseline's, then ``starts.grasp_heights``."""
     base = config.baseline.grasp_height_fraction
-    return [base] + [f for f in config.physics.grasp_heights if f != base]
+    return [base] + [f for f in config.starts.grasp_heights if f != base]
 
 
 def angle_index(candidate: Candidate, config: Config) -> int:

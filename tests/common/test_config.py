@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from drake_clutter.common.config import ConfigError, load_config
+from drake_clutter.common.config import Config, ConfigError, config_from_data, load_config
 
 
 def test_defaults_hold_the_paper_clutter_levels():
@@ -150,9 +150,11 @@ def test_the_comment_rule_catches_a_trailing_comment_and_an_issue_number():
 @pytest.mark.parametrize("low, high", [("knot_low", "knot_high"),
                                        ("progress_low", "progress_high")])
 def test_push_ranges_must_be_ordered(low, high):
-    with pytest.raises(ConfigError, match=f"push.{high}: must be at least push.{low}"):
-        load_config(None, [f"push.{low}=0.8", f"push.{high}=0.5"])
-    assert getattr(load_config(None, [f"push.{low}=0.5", f"push.{high}=0.5"]).push, high) == 0.5
+    with pytest.raises(ConfigError,
+                       match=f"push_search.{high}: must be at least push_search.{low}"):
+        load_config(None, [f"push_search.{low}=0.8", f"push_search.{high}=0.5"])
+    config = load_config(None, [f"push_search.{low}=0.5", f"push_search.{high}=0.5"])
+    assert getattr(config.push_search, high) == 0.5
 
 
 def _integer_fields_without_an_upper_end(cls, seen=None) -> list[str]:
@@ -183,12 +185,12 @@ def _integer_fields_without_an_upper_end(cls, seen=None) -> list[str]:
 
 
 def test_every_count_has_an_upper_end():
-    """A count typed by mistake (push_search.members=1000000) is refused at load."""
+    """A count typed by mistake (phi_judge.members=1000000) is refused at load."""
     from drake_clutter.common.config import Config
 
     assert _integer_fields_without_an_upper_end(Config) == []
-    with pytest.raises(ConfigError, match=r"push_search.members: must be in \[1, 256\]"):
-        load_config(None, ["push_search.members=1000000"])
+    with pytest.raises(ConfigError, match=r"phi_judge.members: must be in \[1, 256\]"):
+        load_config(None, ["phi_judge.members=1000000"])
     with pytest.raises(ConfigError, match="physics.time_budget: must be in"):
         load_config(None, ["physics.time_budget=1e9"])
     with pytest.raises(ConfigError, match="baseline.num_knots"):
@@ -208,3 +210,50 @@ def test_the_upper_end_rule_sees_a_count_without_one():
 
     assert _integer_fields_without_an_upper_end(Counts) == ["Counts.open_ended",
                                                             "Counts.levels"]
+
+
+# ----------------------------------------------------------------------- settings by owner
+
+
+@pytest.mark.parametrize("old, new", [("physics.grasp_heights", "starts.grasp_heights"),
+                                      ("push_search.members", "phi_judge.members"),
+                                      ("ensemble.judge_hold_knots", "phi_judge.hold_knots"),
+                                      ("dynamics.jam_depth", "phi_judge.jam_depth"),
+                                      ("push.lateral", "push_search.lateral")])
+def test_a_moved_field_under_its_old_name_is_one_line_naming_the_new(old, new, tmp_path,
+                                                                      capsys):
+    from drake_clutter.cli import main
+
+    section, name = old.split(".")
+    value = "[0.7]" if name == "grasp_heights" else "2"
+    with pytest.raises(ConfigError, match=f"{old}: renamed to {new}"):
+        load_config(None, [f"{old}={value}"])
+    path = tmp_path / "old.yaml"
+    path.write_text(f"{section}:\n  {name}: {value}\n")
+    assert main(["config", "show", "--config", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{old}: renamed to {new}" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_removed_section_names_where_its_fields_went():
+    with pytest.raises(ConfigError, match="unknown key .*; its fields moved to phi_judge"):
+        config_from_data({"ensemble": {"not_a_field": 1}})
+
+
+def test_a_stored_configuration_of_the_old_layout_reads_as_today():
+    from drake_clutter.common.config import config_to_data, upgrade_stored
+
+    today = config_to_data(Config())
+    old = {k: dict(v) if isinstance(v, dict) else v for k, v in today.items()}
+    for name in ("grasp_heights", "side_tolerance"):
+        old["physics"][name] = old["starts"].pop(name)
+    old["ensemble"] = {"members": 1, "seed": 7, "judge_hold_knots": 3}
+    old["push_search"]["members"] = old["phi_judge"].pop("members")
+    old["dynamics"]["jam_depth"] = 0.002
+    old["push"] = {"lateral": 0.2}
+    upgraded = config_from_data(upgrade_stored(old))
+    assert upgraded.starts == Config().starts
+    assert upgraded.phi_judge.members == 4  # the search's members, not ensemble.members 1
+    assert (upgraded.phi_judge.seed, upgraded.phi_judge.hold_knots) == (7, 3)
+    assert upgraded.phi_judge.jam_depth == 0.002 and upgraded.push_search.lateral == 0.2
+    assert upgrade_stored(today) == today

@@ -152,7 +152,7 @@ def test_findings_round_trip_and_read_again(setting):
     verdict = PhiVerdict.from_findings([findings.to_data()] * 2, Config())
     assert verdict.p_success == 0.0 and verdict.findings == (findings, findings)
     assert verdict.readings[0].reason.startswith("jam")
-    shallow = replace(Config(), dynamics=replace(Config().dynamics, jam_depth=0.005))
+    shallow = replace(Config(), phi_judge=replace(Config().phi_judge, jam_depth=0.005))
     assert PhiVerdict.from_findings(verdict.findings, shallow).readings[0].kind == "success"
 
 
@@ -210,7 +210,7 @@ def test_the_margin_orders_failures_by_how_near_they_came(setting):
     assert _read(setting, states).margin < 1.0
     config = Config()
     assert _read(setting, states, jam=0.003).margin == pytest.approx(
-        0.003 / config.dynamics.jam_depth)
+        0.003 / config.phi_judge.jam_depth)
     assert member_margin(PhiFindings(limit="too fast"), config) == np.inf
     nearer = PhiVerdict((near, near))
     farther = PhiVerdict((far, far))
@@ -260,7 +260,7 @@ def test_judge_paths_is_deterministic_and_reads_the_plans(scene):
     """Two paths in phi's nominal member and one perturbed member (MuJoCo phi, for speed):
     the same verdicts twice; the path that presses large_stable into the board jams in both
     members, the path kept outside the shelf never reaches the target (failure to grasp)."""
-    config = load_config(None, ["dynamics.engine=mujoco", "ensemble.members=2",
+    config = load_config(None, ["dynamics.engine=mujoco", "phi_judge.members=2",
                                 "dynamics.workers=0"])
     pressing = _pressing_path()
     times = np.arange(len(pressing)) * config.baseline.knot_time
@@ -279,7 +279,7 @@ def test_judge_paths_is_deterministic_and_reads_the_plans(scene):
 def test_the_short_judge_reads_the_same_classes_with_stopped_rollouts(scene, baseline_path):
     """``complete=False``: the same readings; the jammed path's rollouts stop at the jam
     (no box fates read) and a path out of the judge's speed limits is not rolled out."""
-    config = load_config(None, ["dynamics.engine=mujoco", "ensemble.members=2",
+    config = load_config(None, ["dynamics.engine=mujoco", "phi_judge.members=2",
                                 "dynamics.workers=0"])
     pressing = _pressing_path()
     times = np.arange(len(pressing)) * config.baseline.knot_time
@@ -292,7 +292,7 @@ def test_the_short_judge_reads_the_same_classes_with_stopped_rollouts(scene, bas
                         complete=False)
     for name in paths:
         assert [r.kind for r in quick[name].readings] == [r.kind for r in full[name].readings]
-    assert all(f.stopped and f.jam >= config.dynamics.jam_depth and f.fallen == ()
+    assert all(f.stopped and f.jam >= config.phi_judge.jam_depth and f.fallen == ()
                for f in quick["pressing"].findings)
     assert not any(f.stopped for f in full["pressing"].findings)
     assert all(f.stopped and f.limit and f.jam is None for f in quick["fast"].findings)
@@ -300,15 +300,15 @@ def test_the_short_judge_reads_the_same_classes_with_stopped_rollouts(scene, bas
 
 
 def test_threads_roll_out_the_same_verdicts_as_in_turn(scene, baseline_path):
-    """``ensemble.judge_threads``: the paths of a member rolled out in two threads, each its
+    """``phi_judge.threads``: the paths of a member rolled out in two threads, each its
     own clone of the MuJoCo phi, read the very same findings as one after the other."""
     pressing = _pressing_path()
     paths = {"pressing": pressing, "outside": np.repeat(pressing[:1], len(pressing), axis=0),
              "baseline": baseline_path}
     found = []
     for threads in (1, 2):
-        config = load_config(None, ["dynamics.engine=mujoco", "ensemble.members=2",
-                                    "dynamics.workers=0", f"ensemble.judge_threads={threads}"])
+        config = load_config(None, ["dynamics.engine=mujoco", "phi_judge.members=2",
+                                    "dynamics.workers=0", f"phi_judge.threads={threads}"])
         times = np.arange(len(pressing)) * config.baseline.knot_time
         verdicts = judge_paths(scene, paths, times, config, ArmGeometry(scene, "capsules"),
                                complete=False)

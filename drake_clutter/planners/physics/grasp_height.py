@@ -1,10 +1,10 @@
 """Sec. V's start at each approach angle (beyond the paper): one of the straight starts
 (`starts.height_candidates`: the baseline's path at each grasp height of
-``physics.grasp_heights`` and yaw offset of ``physics.approach_offsets``) begins the
+``starts.grasp_heights`` and yaw offset of ``starts.approach_offsets``) begins the
 pre-processing and stands as "baseline" in ``select``: the first that neither presses on a box's
-top deeper than ``physics.press_tolerance`` nor enters a non-target box's side deeper than
-``physics.side_tolerance`` (`geometry.path_depths`, the boxes at rest), else the first ranked by
-(presses, enters a side). Why this rule: docs/decisions.md (``physics.grasp_heights``).
+top deeper than ``starts.press_tolerance`` nor enters a non-target box's side deeper than
+``starts.side_tolerance`` (`geometry.path_depths`, the boxes at rest), else the first ranked by
+(presses, enters a side). Why this rule: docs/decisions.md (``starts.grasp_heights``).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The physics-based planner of Sec. V on each baseline candidate (`optimise_candidate`):
 
 0. ``height`` (ours): the start is the first of the baseline's straight paths at the heights and
-   yaws of ``physics.grasp_heights`` / ``approach_offsets`` clear of the boxes
+   yaws of ``starts.grasp_heights`` / ``approach_offsets`` clear of the boxes
    (`grasp_height.choose_height`); it is the "baseline" path of every stage below.
 1. ``pre`` (Sec. V-A): kinematic iLQR (state q^t, control q^(t+1)), the boxes fixed at rest:
    c_static_hull + c_dynamic + c_vel, c_grasp and c_grp_horiz at the end; the baseline's last
@@ -136,7 +136,7 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate, index: in
     cfg = config.physics
     budget = Budget(cfg.time_budget, start=started or time.monotonic())
     timings, details = {}, {"stages": {}, "initialization": candidate.planner}
-    if cfg.grasp_heights or cfg.approach_offsets:
+    if config.starts.grasp_heights or config.starts.approach_offsets:
         tic = time.perf_counter()
         try:
             heights = Deadline(cfg.time_budget, start=budget.start)

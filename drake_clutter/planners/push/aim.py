@@ -6,7 +6,7 @@ rest, the planning world's capsule arm), in the approach frame at the pre-grasp:
 approach direction (G's x axis at the last knot, made horizontal), ``side`` = z x d, z up (W).
 For a met box B with centre at depth ``along`` (m along d from the pre-grasp G), sideways
 ``lateral`` and half extents ``half_along``, ``half_side`` (its support along d and side), a
-member is one of two moves, its lengths drawn in `PushConfig`'s aimed ranges:
+member is one of two moves, its lengths drawn in `PushSearchConfig`'s aimed ranges:
 
 * **aside** (push the box out of the line, then reach): G comes beside B on the side away from
   ``sign`` (B's own side of the line, or the other), moves in to B's centre depth, sweeps
@@ -16,7 +16,7 @@ member is one of two moves, its lengths drawn in `PushConfig`'s aimed ranges:
 
 The via-points' times are spread in proportion to G's distance travelled (the path's own
 duration kept), and the gripper stays closed until the last via-point with
-``push.closed_chance``. Frames: W; metres, radians, fractions of the path's duration.
+``push_search.closed_chance``. Frames: W; metres, radians, fractions of the path's duration.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_clutter.common.config import PushConfig
+from drake_clutter.common.config import PushSearchConfig
 from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.push.family import PushPath, ViaPoint, draw_member
 
@@ -116,7 +116,7 @@ def _timed(frame: ApproachFrame, points: list[tuple[float, float, float]]
 
 
 def aimed_member(rng: np.random.Generator, frame: ApproachFrame, found: list[Obstruction],
-                 ranges: PushConfig) -> PushPath | None:
+                 ranges: PushSearchConfig) -> PushPath | None:
     """A member aimed at one of the ``found`` boxes (drawn in proportion to its depth), its
     move, side and lengths drawn in ``ranges`` (module docstring); None if nothing is met."""
     if not found:
@@ -145,7 +145,7 @@ def aimed_member(rng: np.random.Generator, frame: ApproachFrame, found: list[Obs
 
 
 def draw(rng: np.random.Generator, frame: ApproachFrame, found: list[Obstruction],
-         ranges: PushConfig) -> PushPath:
+         ranges: PushSearchConfig) -> PushPath:
     """A member: aimed (`aimed_member`) with ``ranges.aimed_chance`` when a box is met, else
     drawn blind (`family.draw_member`)."""
     if found and ranges.aimed_chance > 0.0 and rng.uniform() < ranges.aimed_chance:

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drake_clutter.common.config import Config, PushConfig
+from drake_clutter.common.config import Config, PushSearchConfig
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
@@ -149,7 +149,7 @@ def member_path(geometry: ArmGeometry, straight: np.ndarray, member: PushPath,
     return path, worst
 
 
-def draw_member(rng: np.random.Generator, ranges: PushConfig) -> PushPath:
+def draw_member(rng: np.random.Generator, ranges: PushSearchConfig) -> PushPath:
     """A random member with ``ranges.vias`` via-points: times and progresses sorted uniform
     draws, offsets uniform in their ranges; the gripper closed until a uniform time with
     ``closed_chance``."""

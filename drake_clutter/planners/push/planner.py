@@ -1,5 +1,5 @@
 """The push planner (beyond the paper): per approach angle, the baseline's straight path at
-each grasp height and yaw of ``physics.grasp_heights`` and ``physics.approach_offsets``
+each grasp height and yaw of ``starts.grasp_heights`` and ``starts.approach_offsets``
 (`starts.height_candidates`); the first of them that keeps off the boxes
 (`geometry.clear_paths`, with ``push_search.clear_first``), else the sampling search over the push
 family from them all, scored by the judge in phi (`search.run_search`).
@@ -7,7 +7,7 @@ family from them all, scored by the judge in phi (`search.run_search`).
 The scene's planning worlds are built once (`context.PlanningContext`) and serve every angle.
 Where the baseline's own path failed (IK, the optimiser, the dense shelf check), the other
 heights are planned all the same, and where none plans, the line turned toward the shelf's
-axis (`starts.planned_starts`, ``physics.recovery_turns``); a path planned so records the
+axis (`starts.planned_starts`, ``starts.recovery_turns``); a path planned so records the
 baseline's failure in ``details["recovered"]`` and never falls back to it. With no start at
 all the baseline's failure comes back as it is, relabelled "push". A search that finds
 nothing better returns its best start, recorded as such. With ``push_search.fallback``, a

@@ -9,7 +9,7 @@ yaws, knots at the same times, the first the baseline's own), in rounds (``push_
    feasible: every knot on its target within 1 mm, the judge's joint and speed limits
    (`trajectory.plan_limit_violation`), the baseline's dense shelf check. The starts and the
    kept members are judged together in phi (`phi_judge.judge_paths`: members 0 .. K - 1, K =
-   ``push_search.members``, phi's engine ``push_search.engine``).
+   ``phi_judge.members``, phi's engine ``phi_judge.engine``).
 2. **Later rounds** (``method``): the ``elite`` best bent paths so far are the means of the
    round's sampling distribution, and copies of them with their via-points jittered
    (`perturb`) are built, checked and judged in the same members (their verdicts compare with
@@ -125,9 +125,7 @@ class Search:
         self.deadline = deadline or Deadline(None)
         self.geometry, self.clearance = context.arm(), context.clearance
         search = config.push_search
-        self.judge_config = replace(
-            config, dynamics=replace(config.dynamics, engine=search.engine),
-            ensemble=replace(config.ensemble, members=search.members))
+        self.judge_config = config  # the judge in phi reads its own section (phi_judge)
         self.samples = {name: Sample(name, None, np.asarray(q, float))
                         for name, q in starts.items()}
         self.verdicts: dict[str, PhiVerdict] = {}
@@ -214,7 +212,7 @@ class Search:
         cuts the veto). The veto's verdicts (None: no veto run)."""
         if self.samples[pick].member is None:
             return pick, None
-        cfg = self.config.push_search
+        cfg = self.config.phi_judge
         held_out = range(cfg.members, cfg.members + cfg.veto_members)
         verdicts = {} if self.deadline.spend("veto") else self.judge([pick, best_start],
                                                                       held_out)
@@ -285,7 +283,7 @@ def _draw_round(s: Search, rng: np.random.Generator, starts: list[str]) -> list[
         start = starts[i % len(starts)]
         frame, found = s.frame(start)
         name = f"{start}/r0m{i}"
-        if s.add(name, start, draw(rng, frame, found, s.config.push)):
+        if s.add(name, start, draw(rng, frame, found, s.config.push_search)):
             kept.append(name)
     return kept
 

@@ -21,8 +21,8 @@ def test_the_planner_starts_from_the_chosen_height(scene, fig5_heights):
     record = candidate.details["grasp_height"]
     assert set(record["candidates"]) == {"0.5", "0.9"} and record["rule"] == "clear"
     entries = record["candidates"]
-    flags = {k: (e["press"] > config.physics.press_tolerance,
-                 e["side"] > config.physics.side_tolerance) for k, e in entries.items()}
+    flags = {k: (e["press"] > config.starts.press_tolerance,
+                 e["side"] > config.starts.side_tolerance) for k, e in entries.items()}
     assert flags[record["chosen"]] == min(flags.values())
     # No stage changes the path: the plan is the chosen height's baseline path.
     tool_z = ArmGeometry(scene, "capsules").tool(candidate.trajectory.q[-1])[0][2]
@@ -38,7 +38,7 @@ def test_the_planner_starts_from_the_chosen_height(scene, fig5_heights):
 def fig5_heights(scene):
     from drake_clutter.planners.baseline import plan_baseline
 
-    config = load_config(None, ["physics.grasp_heights=[0.9]", "physics.iterations=0",
+    config = load_config(None, ["starts.grasp_heights=[0.9]", "physics.iterations=0",
                                 "physics.sphere_iterations=0", "physics.pre_iterations=0",
                                 "physics.post_iterations=0", "dynamics.workers=0"])
     (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
@@ -49,7 +49,7 @@ def test_the_clear_choice_prefers_a_path_off_every_box_then_one_that_does_not_pr
         scene, monkeypatch):
     from drake_clutter.planners.baseline import plan_baseline
 
-    config = load_config(None, ["physics.grasp_heights=[0.7, 0.9]"])
+    config = load_config(None, ["starts.grasp_heights=[0.7, 0.9]"])
     (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
     base = start.details["height"]
     excluded = []
@@ -85,7 +85,7 @@ def test_the_clear_choice_prefers_a_path_off_every_box_then_one_that_does_not_pr
 def test_approach_offsets_turn_the_line_and_come_after_every_height(scene, monkeypatch):
     from drake_clutter.planners.baseline import plan_baseline
 
-    config = load_config(None, ["physics.grasp_heights=[0.9]", "physics.approach_offsets=[0.06]"])
+    config = load_config(None, ["starts.grasp_heights=[0.9]", "starts.approach_offsets=[0.06]"])
     (start,) = plan_baseline(scene, config.baseline, alphas=[0.3])
     context = PlanningContext(scene, config)
     found = starts.height_candidates(context, start)
@@ -119,8 +119,8 @@ def test_approach_offsets_turn_the_line_and_come_after_every_height(scene, monke
 @pytest.mark.parametrize("fractions", [[0.0], [1.2], [0.6, -0.1]])
 def test_grasp_heights_must_be_fractions_of_the_target(fractions):
     config = Config()
-    config = replace(config, physics=replace(config.physics, grasp_heights=tuple(fractions)))
-    with pytest.raises(ConfigError, match="physics.grasp_heights"):
+    config = replace(config, starts=replace(config.starts, grasp_heights=tuple(fractions)))
+    with pytest.raises(ConfigError, match="starts.grasp_heights"):
         check_config(config)
 
 
@@ -129,6 +129,6 @@ def test_grasp_heights_must_be_fractions_of_the_target(fractions):
                                           ("approach_offsets", (0.1, -0.7))])
 def test_the_press_checks_settings_are_checked(field, value):
     config = Config()
-    config = replace(config, physics=replace(config.physics, **{field: value}))
-    with pytest.raises(ConfigError, match=f"physics.{field}"):
+    config = replace(config, starts=replace(config.starts, **{field: value}))
+    with pytest.raises(ConfigError, match=f"starts.{field}"):
         check_config(config)

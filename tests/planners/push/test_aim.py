@@ -65,7 +65,7 @@ def test_the_met_box_is_found_in_front_of_the_target(setting):
 def test_an_aside_move_starts_beside_the_box_and_sweeps_across(setting):
     _, _, _, frame, _ = setting
     box = Obstruction("b", 0.02, along=-0.15, lateral=0.03, half_along=0.04, half_side=0.05)
-    ranges = Config().push
+    ranges = Config().push_search
     for seed in range(20):
         rng = np.random.default_rng(seed)
         member = aimed_member(rng, frame, [box], ranges)
@@ -94,7 +94,7 @@ def test_draws_are_seeded_and_mostly_feasible(setting):
 
     def members(seed):
         rng = np.random.default_rng(seed)
-        return [draw(rng, frame, found, config.push) for _ in range(8)]
+        return [draw(rng, frame, found, config.push_search) for _ in range(8)]
 
     assert members(3) == members(3) and members(3) != members(4)
     feasible = 0

@@ -80,7 +80,7 @@ def test_the_gripper_opens_when_asked(setting):
 
 def test_draws_are_seeded_and_mostly_feasible(setting):
     scene, geometry, trajectory = setting
-    ranges = Config().push
+    ranges = Config().push_search
     a = [draw_member(np.random.default_rng(4), ranges) for _ in range(2)]
     b = [draw_member(np.random.default_rng(4), ranges) for _ in range(2)]
     assert a == b

@@ -16,7 +16,7 @@ from drake_clutter.planners.starts import height_candidates, turned_starts
 from drake_clutter.trajectory import CandidateStatus
 
 SMALL = ["dynamics.workers=0", "push_search.samples=3", "push_search.rounds=1",
-         "push_search.members=2", "push_search.veto_members=2"]
+         "phi_judge.members=2", "phi_judge.veto_members=2"]
 
 
 def _failed(name: str, index: int, sets=()):
@@ -42,12 +42,12 @@ def test_a_steep_angle_that_fails_is_planned_turned_toward_the_shelf_axis(steep_
     assert candidate.status is CandidateStatus.IK_FAILED and "start pose" in candidate.reason
     assert height_candidates(context, candidate) == {}
     found = turned_starts(context, candidate)
-    turn = config.physics.recovery_turns[0]
+    turn = config.starts.recovery_turns[0]
     assert found and {offset for _, offset in found} == {turn}  # toward alpha = 0: positive
     for (fraction, _), start in found.items():
         assert start.ok and start.alpha == pytest.approx(candidate.alpha + turn)
         assert fraction in (config.baseline.grasp_height_fraction,
-                            *config.physics.grasp_heights)
+                            *config.starts.grasp_heights)
 
 
 def test_the_push_planner_searches_from_the_turned_starts(steep_fridge):
@@ -60,7 +60,7 @@ def test_the_push_planner_searches_from_the_turned_starts(steep_fridge):
 
 
 def test_with_nothing_planned_the_failure_comes_back_as_it_was():
-    scene, config, _, candidate = _failed("fridge_n04_s10015", 12, ["physics.recovery_turns=[]"])
+    scene, config, _, candidate = _failed("fridge_n04_s10015", 12, ["starts.recovery_turns=[]"])
     assert not candidate.ok
     (planned,) = plan_push(scene, config, [candidate])
     assert (planned.status, planned.reason, planned.planner) == (candidate.status,
@@ -71,4 +71,4 @@ def test_with_nothing_planned_the_failure_comes_back_as_it_was():
 @pytest.mark.parametrize("turns", ["[0.0]", "[0.6]", "[-0.1]"])
 def test_recovery_turns_are_checked(turns):
     with pytest.raises(ConfigError, match="recovery_turns"):
-        load_config(None, [f"physics.recovery_turns={turns}"])
+        load_config(None, [f"starts.recovery_turns={turns}"])

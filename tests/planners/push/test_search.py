@@ -20,8 +20,8 @@ from drake_clutter.planners.push.search import offsets, perturb, run_search
 from drake_clutter.planners.registry import get_planner
 from drake_clutter.scene import scenes
 
-SMALL = ["push_search.samples=3", "push_search.rounds=2", "push_search.members=2",
-         "push_search.veto_members=2", "push_search.elite=1", "push_search.perturbations=2"]
+SMALL = ["push_search.samples=3", "push_search.rounds=2", "phi_judge.members=2",
+         "phi_judge.veto_members=2", "push_search.elite=1", "push_search.perturbations=2"]
 
 
 @pytest.fixture(scope="module")
@@ -75,7 +75,7 @@ def test_the_cross_entropy_search_climbs_and_refits_its_spreads(setting, monkeyp
     monkeypatch.setattr(search_module, "judge_paths", _nearness_judge(trajectory.q, 0.15))
     config = load_config(None, [*SMALL, "push_search.method=cem", "push_search.samples=6",
                                 "push_search.rounds=4", "push_search.elite=2",
-                                "push_search.population=6", "push_search.veto_members=1",
+                                "push_search.population=6", "phi_judge.veto_members=1",
                                 "push_search.spread_floor_offset=0.004"])
     seen = []
     result = run_search(context.with_config(config), {"a": trajectory.q}, trajectory.times,
@@ -183,7 +183,7 @@ def test_the_real_judge_steps_nothing_after_its_deadline(setting):
 
     scene, trajectory, context = setting
     geometry = context.arm()
-    config = load_config(None, ["ensemble.members=2", "dynamics.engine=mujoco"])
+    config = load_config(None, ["phi_judge.members=2", "dynamics.engine=mujoco"])
     paths = {"a": trajectory.q}
     tic = time.monotonic()
     assert judge_paths(scene, paths, trajectory.times, config, geometry,
@@ -228,7 +228,7 @@ def test_the_push_planner_is_registered_and_plans_every_angle():
     assert planner.starts_from == "baseline"
     scene = scenes.load_shipped_scene("fig6_push_sideways")
     config = load_config(None, [*SMALL, "push_search.rounds=1", "push_search.samples=1",
-                                "physics.grasp_heights=[]", "physics.approach_offsets=[]"])
+                                "starts.grasp_heights=[]", "starts.approach_offsets=[]"])
     (candidate,) = planner.plan(scene, config, angles=[3])
     assert candidate.planner == "push" and candidate.ok
     search = candidate.details["search"]
@@ -248,7 +248,7 @@ def test_members_rolled_out_in_workers_read_the_same(setting):
 
     scene, trajectory, context = setting
     geometry = context.arm()
-    config = load_config(None, ["ensemble.members=2", "dynamics.engine=mujoco"])
+    config = load_config(None, ["phi_judge.members=2", "dynamics.engine=mujoco"])
     paths = {"a": trajectory.q}
     serial = judge_paths(scene, paths, trajectory.times, config, geometry=geometry)
     pool = WorkerPool(2)
@@ -262,13 +262,13 @@ def test_members_rolled_out_in_workers_read_the_same(setting):
 def test_a_clear_straight_start_is_returned_without_a_search():
     planner = get_planner("push")
     scene = scenes.load_shipped_scene("default_bookshelf")
-    config = load_config(None, [*SMALL, "physics.grasp_heights=[]"])
+    config = load_config(None, [*SMALL, "starts.grasp_heights=[]"])
     (clear,) = planner.plan(scene, config, angles=[10])  # its straight path keeps off the boxes
     assert clear.details["clear"] == ["0.5"] and clear.details["chosen"] == "0.5"
     assert "search" not in clear.details and "search" not in clear.timings
     (blocked,) = planner.plan(scene, config, angles=[2])  # its straight path enters a box
     assert "clear" not in blocked.details and blocked.details["search"]["verdicts"]
-    off = load_config(None, [*SMALL, "physics.grasp_heights=[]", "push_search.clear_first=false",
+    off = load_config(None, [*SMALL, "starts.grasp_heights=[]", "push_search.clear_first=false",
                              "push_search.rounds=1", "push_search.samples=1"])
     (searched,) = planner.plan(scene, off, angles=[10])
     assert "search" in searched.details
@@ -280,7 +280,7 @@ def test_the_plan_command_compares_the_push_planner_with_the_baseline(tmp_path, 
 
     out = tmp_path / "plan.json"
     small = [f"--set={s}" for s in (*SMALL, "push_search.rounds=1", "push_search.samples=1",
-                                      "physics.grasp_heights=[]", "physics.approach_offsets=[]")]
+                                      "starts.grasp_heights=[]", "starts.approach_offsets=[]")]
     code = main(["plan", "fig6_push_sideways", "--planner", "both", "--angles", "1", "--out",
                  str(out), *small])
     assert code == 0
@@ -304,7 +304,7 @@ def test_a_pick_that_reads_no_grasp_falls_back_to_the_baseline_path(kinds, fallb
     record = {"chosen": "0.5/r0m0", "verdicts": {"0.5/r0m0": {"kinds": kinds}}}
     monkeypatch.setattr(planner_module, "run_search",
                         lambda *args, **kw: SearchResult("0.5/r0m0", bent, record))
-    config = load_config(None, ["physics.grasp_heights=[]", "physics.approach_offsets=[]",
+    config = load_config(None, ["starts.grasp_heights=[]", "starts.approach_offsets=[]",
                                 "push_search.clear_first=false",
                                 f"push_search.fallback={str(fallback).lower()}"])
     (baseline,) = plan_baseline(scene, config.baseline, alphas=[0.0])

@@ -4,8 +4,10 @@ planner (``push/``, beyond the paper). The parts they share have one home each: 
 and end poses (``approach``), shelf clearance (``clearance``), the arm's planning geometry and
 its box checks (``geometry``), a scene's planning worlds built once (``context``), the straight
 starts at several grasp heights (``starts``), phi's ensemble members (``members``), the judge in
-phi (``phi_judge``), the choice of the plan to execute (``selection``) and the registry. No
-algorithm imports another's internals.
+phi (``phi_judge``), the outer loop of the planners that refine the baseline's candidates
+(``loop``), the choice of the plan to execute (``selection``) and the registry. No algorithm
+imports another's internals, and nothing outside a planner's module or folder reads its
+candidates' ``details``: each planner reads its own (``Planner.record``, ``Planner.score``).
 
 May import: ``common``, ``robot``, ``scene``, ``trajectory``, ``worlds``, ``solvers``, ``phi``.
 """

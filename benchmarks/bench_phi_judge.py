@@ -40,8 +40,13 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def judge_config(config, members: int):
-    """``config`` with the judge in phi's members set to ``members``."""
-    return replace(config, phi_judge=replace(config.phi_judge, members=members))
+    """``config`` with the judge in phi's members set to ``members``, in the configuration
+    layout of the code that runs (a reference from before the judge had its own section judged
+    in ``dynamics.engine`` with ``ensemble.members``, the search setting both)."""
+    if hasattr(config, "phi_judge"):
+        return replace(config, phi_judge=replace(config.phi_judge, members=members))
+    return replace(config, dynamics=replace(config.dynamics, engine=config.push_search.engine),
+                   ensemble=replace(config.ensemble, members=members))
 
 
 def search_paths(item: str, config):
@@ -62,8 +67,7 @@ def search_paths(item: str, config):
     context = PlanningContext(scene, config)
     found = height_candidates(context, candidate)
     starts = {start_key(*key): c.trajectory.q for key, c in found.items()}
-    search = Search(scene, starts, candidate.trajectory.times, config, context.arm(),
-                    context.clearance)
+    search = Search(context, starts, candidate.trajectory.times)
     rng = np.random.default_rng([config.push_search.seed, int(angle), 0])
     names = list(starts)
     for i in range(config.push_search.samples):

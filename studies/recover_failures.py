@@ -35,6 +35,7 @@ from drake_clutter.planners import baseline
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.starts import planned_starts, start_key
+from drake_clutter.planners.registry import get_planner
 from drake_clutter.scene.generators import SceneSpec, generate_scene
 
 FIXED = ["dynamics.workers=0", "evaluation.robust_replays=8"]
@@ -95,7 +96,7 @@ def judged(row: dict) -> dict:
     plan = result["plan"] or {}
     robust = result["outcome"].get("robust") or {}
     return row | {"push_status": plan.get("status"),
-                  "chosen": (plan.get("details") or {}).get("chosen"),
+                  "chosen": get_planner("push").record(plan.get("details") or {}).chosen,
                   "kind_nominal": result["outcome"]["kind"],
                   "p_success": robust.get("p_success", 0.0),
                   "seconds": result["timings"].get("plan")}

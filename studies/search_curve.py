@@ -45,6 +45,7 @@ from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.push.planner import falls_back
 from drake_clutter.planners.push.search import run_search
+from drake_clutter.planners.registry import get_planner
 from drake_clutter.planners.starts import height_candidates, start_key
 from drake_clutter.trajectory import Trajectory
 
@@ -61,7 +62,7 @@ def searched(db: str, configuration: str) -> list[tuple[str, int, str]]:
     out = []
     for _, row, _trajectory, found in stored_plans([db], [configuration]):
         details = (row["plan"] or {}).get("details") or {}
-        if row["planner"] == "push" and "search" in details:
+        if row["planner"] == "push" and get_planner("push").record(details).search:
             out.append((row["scene"], int(row["angle"]), found))
     return out
 

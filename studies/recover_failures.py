@@ -34,8 +34,8 @@ from drake_clutter.experiments.specs import expand, load_spec, run_unit
 from drake_clutter.planners import baseline
 from drake_clutter.planners.approach import approach_angles
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.starts import planned_starts, start_key
 from drake_clutter.planners.registry import get_planner
+from drake_clutter.planners.starts import planned_starts, start_key
 from drake_clutter.scene.generators import SceneSpec, generate_scene
 
 FIXED = ["dynamics.workers=0", "evaluation.robust_replays=8"]

@@ -56,3 +56,16 @@ def test_only_judge_settings_can_change(source, tmp_path):
         rejudge(str(source), str(tmp_path / "x.db"), ["physics.iterations=40"], progress=False)
     assert err.value.field == "physics.iterations"
     assert not (tmp_path / "x.db").exists()
+
+
+def test_a_configuration_stored_before_the_judge_in_phi_had_its_section_is_read():
+    from drake_clutter.common.config import Config, config_to_data
+    from drake_clutter.experiments.rejudge import changed_config
+
+    old = config_to_data(Config())
+    old["push_search"]["members"] = old["phi_judge"].pop("members")
+    old["ensemble"] = {"members": 1, "judge_hold_knots": old["phi_judge"].pop("hold_knots")}
+    old["physics"]["grasp_heights"] = old["starts"].pop("grasp_heights")
+    config = changed_config(old, ["evaluation.max_static_force=75"])
+    assert config.phi_judge == Config().phi_judge and config.starts == Config().starts
+    assert config.evaluation.max_static_force == 75

@@ -129,7 +129,7 @@ def test_plan_scene_app_writes_html_of_default_scene(tmp_path):
 @pytest.mark.parametrize("args, field", [(["--jobs", "0"], "--jobs"),
                                          (["--angles", "0"], "--angles"),
                                          (["--set", "physics.iterations=-1"], "physics"),
-                                         (["--set", "phi_judge.members=0"], "push_search"),
+                                         (["--set", "phi_judge.members=0"], "phi_judge.members"),
                                          (["--iterations", "30"], "--iterations"),
                                          (["--planner", "nope"], "--planner"),
                                          (["--jobs", "two"], "--jobs")])

@@ -160,3 +160,15 @@ def test_each_planner_reads_its_own_planning_seconds():
     assert get_planner("baseline").paper_row == "paper: baseline"
     assert get_planner("physics").paper_row == "paper: physics-aware"
     assert get_planner("push").paper_row is None
+
+
+def test_the_push_planners_record_is_what_it_stores():
+    from drake_clutter.planners.push.record import PushRecord
+
+    searched = {"initialization": "baseline", "chosen": "0.6/r1m2", "budget": {"spent": False},
+                "search": {"verdicts": {"0.6/r1m2": {"p_success": 0.5}}, "best_start": "0.6"},
+                "recovered": {"status": "ik_failed", "reason": "start pose"}}
+    clear = {"initialization": "baseline", "clear": ["0.7", "0.8"], "chosen": "0.7",
+             "budget": {"spent": False}}
+    for details in (searched, clear):
+        assert PushRecord.from_details(details).to_details() == details

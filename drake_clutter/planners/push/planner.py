@@ -32,7 +32,7 @@ from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import clear_paths
 from drake_clutter.planners.loop import refine_each
-from drake_clutter.planners.push.record import FALLBACK
+from drake_clutter.planners.push.record import FALLBACK, PushRecord
 from drake_clutter.planners.push.search import run_search
 from drake_clutter.planners.starts import planned_starts, start_key
 from drake_clutter.scene.scenes import Scene
@@ -62,26 +62,26 @@ def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
     times = next(iter(found.values())).trajectory.times
     clear = clear_paths(geometry, starts, config, scene.target) if (
         config.push_search.clear_first) else []
-    recovered = {} if candidate.ok else {"recovered": {"status": candidate.status.value,
-                                                       "reason": candidate.reason}}
+    recovered = {} if candidate.ok else {"status": candidate.status.value,
+                                         "reason": candidate.reason}
     if clear:
-        details = {"initialization": candidate.planner, "clear": clear, "chosen": clear[0],
-                   "budget": deadline.record(), **recovered}
+        record = PushRecord(clear[0], tuple(clear), recovered=recovered,
+                            budget=deadline.record(), initialization=candidate.planner)
         trajectory = Trajectory(times.copy(), starts[clear[0]])
         return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
-                         timings=timings, details=details)
+                         timings=timings, details=record.to_details())
     tic = time.perf_counter()
     result = run_search(context, starts, times, index, pool, deadline)
     timings["search"] = time.perf_counter() - tic
-    details = {"initialization": candidate.planner, "search": result.record,
-               "chosen": result.name, "budget": deadline.record(), **recovered}
-    trajectory = Trajectory(times.copy(), result.q)
+    chosen, trajectory = result.name, Trajectory(times.copy(), result.q)
     if candidate.ok and falls_back(result.record["verdicts"].get(result.name), config):
-        details["chosen"] = FALLBACK
+        chosen = FALLBACK
         trajectory = Trajectory(candidate.trajectory.times.copy(),
                                 candidate.trajectory.q.copy())
+    record = PushRecord(chosen, search=result.record, recovered=recovered,
+                        budget=deadline.record(), initialization=candidate.planner)
     return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="push",
-                     timings=timings, details=details)
+                     timings=timings, details=record.to_details())
 
 
 def failed(candidate: Candidate, timings: dict, deadline: Deadline) -> Candidate:

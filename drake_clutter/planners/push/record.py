@@ -1,11 +1,14 @@
-"""What the push planner did at one approach angle, read from its candidate's ``details``
-(`planner.push_candidate` writes them), and the score it ranks its candidates by.
+"""What the push planner did at one approach angle (`PushRecord`), and the score it ranks its
+candidates by.
 
-The record's keys: ``clear`` (the straight starts that keep off the boxes; the first is the
-plan), ``chosen`` (the name of the returned path: a start ``"<height>"``, a bent member
-``"<start>/<draw>"``, or `FALLBACK`), ``search`` (the search's record: ``verdicts`` per judged
-path, ``counts``, ``chosen``, ``best_start``), ``recovered`` (the baseline's failure a turned
-or other-height start replaced), ``budget`` (what the time budget cut).
+The planner (`planner.push_candidate`) builds its record and stores it as the candidate's
+``details`` (`PushRecord.to_details`); a stored one reads back with `PushRecord.from_details`.
+The keys: ``initialization`` (the planner the start came from), ``clear`` (the straight starts
+that keep off the boxes; the first is the plan), ``chosen`` (the name of the returned path: a
+start ``"<height>"``, a bent member ``"<start>/<draw>"``, or `FALLBACK`), ``search`` (the
+search's record: ``verdicts`` per judged path, ``counts``, ``chosen``, ``best_start``),
+``recovered`` (the baseline's failure a turned or other-height start replaced), ``budget``
+(what the time budget cut).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ class PushRecord:
     search: dict = field(default_factory=dict)
     recovered: dict = field(default_factory=dict)
     budget: dict = field(default_factory=dict)
+    initialization: str = ""
 
     @classmethod
     def from_details(cls, details: dict) -> PushRecord:
@@ -36,7 +40,16 @@ class PushRecord:
         return cls(chosen=str(details.get("chosen", "")), clear=tuple(details.get("clear", ())),
                    search=dict(details.get("search") or {}),
                    recovered=dict(details.get("recovered") or {}),
-                   budget=dict(details.get("budget") or {}))
+                   budget=dict(details.get("budget") or {}),
+                   initialization=str(details.get("initialization", "")))
+
+    def to_details(self) -> dict:
+        """The record as a candidate's ``details`` (JSON-ready; empty fields left out), the
+        inverse of `from_details`."""
+        out = {"initialization": self.initialization, "clear": list(self.clear),
+               "search": self.search, "chosen": self.chosen, "budget": self.budget,
+               "recovered": self.recovered}
+        return {k: v for k, v in out.items() if v or k == "chosen"}
 
     @property
     def bent(self) -> bool:

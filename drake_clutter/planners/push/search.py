@@ -125,7 +125,6 @@ class Search:
         self.deadline = deadline or Deadline(None)
         self.geometry, self.clearance = context.arm(), context.clearance
         search = config.push_search
-        self.judge_config = config  # the judge in phi reads its own section (phi_judge)
         self.samples = {name: Sample(name, None, np.asarray(q, float))
                         for name, q in starts.items()}
         self.verdicts: dict[str, PhiVerdict] = {}
@@ -156,7 +155,7 @@ class Search:
         if not names:
             return {}
         found = judge_paths(self.scene, {n: self.samples[n].q for n in names}, self.times,
-                            self.judge_config, self.geometry, self.pool, members,
+                            self.config, self.geometry, self.pool, members,
                             complete=False, deadline=self.deadline.at)
         self.counts["unjudged"] += len(names) - len(found)
         if len(found) < len(names):

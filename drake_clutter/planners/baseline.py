@@ -13,7 +13,7 @@ in `approach`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
@@ -70,30 +70,37 @@ def plan_angle(ctx: _Context, alpha: float, index: int) -> Candidate:
 def _plan_angle(ctx: _Context, alpha: float, index: int) -> Candidate:
     config = ctx.config
     poses = approach_poses(ctx.scene, alpha, config, ctx.extent)
-    details = {"height": poses.height,
-               "start_xyz": poses.X_WStart.translation().tolist(),
-               "pregrasp_xyz": poses.X_WPregrasp.translation().tolist()}
+    record = BaselineRecord(height=poses.height,
+                            start_xyz=tuple(poses.X_WStart.translation().tolist()),
+                            pregrasp_xyz=tuple(poses.X_WPregrasp.translation().tolist()))
     timings: dict[str, float] = {}
     ends = end_configurations(ctx.ik, poses, config, ctx.previous, index, timings)
     if isinstance(ends, str):
         return Candidate(alpha, CandidateStatus.IK_FAILED, ends, None, timings=timings,
-                         details=details)
-    q_start, q_end, details["ik_solvers"] = ends
-    opt, check = optimise_and_check(ctx.optimiser, q_start, q_end, poses.X_WPregrasp,
-                                    timings, details)
-    return _candidate(alpha, opt, check, config, timings, details)
+                         details=record.to_details())
+    q_start, q_end, solvers = ends
+    opt, check, done = optimise_and_check(ctx.optimiser, q_start, q_end, poses.X_WPregrasp,
+                                          timings)
+    record = replace(record, ik_solvers=tuple(solvers), **_as_fields(done))
+    return _candidate(alpha, opt, check, config, timings, record)
+
+
+def _as_fields(values: dict) -> dict:
+    """``values`` with its lists as tuples (the record's sequences are immutable)."""
+    return {k: tuple(v) if isinstance(v, list) else v for k, v in values.items()}
 
 
 def _candidate(alpha: float, opt: OptResult, check: CheckResult | None,
-               config: BaselineConfig, timings: dict, details: dict) -> Candidate:
+               config: BaselineConfig, timings: dict, record: BaselineRecord) -> Candidate:
     """The angle's Candidate from its optimised path and dense check (None: the
-    optimisation failed): "ok", or why not."""
+    optimisation failed): "ok", or why not; ``record`` completed and stored as its details."""
     trajectory = _trajectory(opt.q, config.knot_time)
     if check is None:
         return Candidate(alpha, CandidateStatus.OPTIMISATION_FAILED,
                          f"{opt.solver}: {opt.solver_status}, terminal pose not kept",
-                         trajectory, timings=timings, details=details)
-    details.update({"max_penetration": check.depth, "check_samples": check.samples})
+                         trajectory, timings=timings, details=record.to_details())
+    details = replace(record, max_penetration=check.depth,
+                      check_samples=check.samples).to_details()
     if not check.passed:
         return Candidate(alpha, CandidateStatus.COLLISION_CHECK_FAILED,
                          f"penetrates the shelf by {check.depth * 1000:.1f} mm ({check.where}) "
@@ -126,24 +133,58 @@ def plan_baseline(scene: Scene, config: BaselineConfig | None = None,
 
 @dataclass(frozen=True)
 class BaselineRecord:
-    """What the baseline did at one approach angle, read from its candidate's ``details``: the
-    path optimisation's cost histories (``c_static_hull``, ``c_vel``; the last entry is the
-    final cost) and the dense check's deepest penetration (m)."""
+    """What the baseline did at one approach angle; the planner builds it and stores it as
+    the candidate's ``details`` (`to_details`), read back with `from_details`. Fields not
+    reached (IK failed, the optimisation failed) are None or empty and left out of
+    ``details``.
 
+    - ``height``: the grasp height (m, W); ``start_xyz``, ``pregrasp_xyz``: the tool frame's
+      start and pre-grasp positions (m, W);
+    - ``ik_solvers``: the solvers that found the start and pre-grasp configurations;
+    - ``opt_passes`` (1, or 2 with the refining pass), ``opt_solver``, ``opt_status``,
+      ``opt_evaluations``: the path optimisation;
+    - ``c_static_hull``, ``c_vel``: its unweighted costs before and after (the last entry is
+      the final cost); ``terminal_position_error`` (m), ``terminal_rotation_error`` (rad):
+      the last knot's pose error;
+    - ``max_penetration`` (m), ``check_samples``: the dense check's deepest penetration and
+      its samples.
+    """
+
+    height: float | None = None
+    start_xyz: tuple[float, ...] = ()
+    pregrasp_xyz: tuple[float, ...] = ()
+    ik_solvers: tuple[str, ...] = ()
+    opt_passes: int | None = None
+    opt_solver: str | None = None
+    opt_status: str | None = None
+    opt_evaluations: int | None = None
     c_static_hull: tuple[float, ...] = ()
     c_vel: tuple[float, ...] = ()
+    terminal_position_error: float | None = None
+    terminal_rotation_error: float | None = None
     max_penetration: float | None = None
+    check_samples: int | None = None
 
     bent = False  # a straight line
     label = "straight path"
 
     @classmethod
     def from_details(cls, details: dict) -> BaselineRecord:
-        """The record of a candidate's ``details`` (stored or fresh)."""
-        pen = details.get("max_penetration")
-        return cls(tuple(map(float, details.get("c_static_hull", ()))),
-                   tuple(map(float, details.get("c_vel", ()))),
-                   None if pen is None else float(pen))
+        """The record of a candidate's ``details`` (stored or fresh; keys it does not know are
+        ignored)."""
+        names = {f.name for f in fields(cls)}
+        return cls(**_as_fields({k: v for k, v in details.items() if k in names}))
+
+    def to_details(self) -> dict:
+        """The record as a candidate's ``details`` (JSON-ready, the fields not reached left
+        out), the inverse of `from_details`."""
+        out = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if value is None or (isinstance(value, tuple) and not value):
+                continue
+            out[f.name] = list(value) if isinstance(value, tuple) else value
+        return out
 
     def histories(self) -> dict[str, dict]:
         """No iLQR histories: the path is optimised by SNOPT/IPOPT."""
@@ -167,7 +208,7 @@ def candidates_table(candidates: list[Candidate]) -> str:
             f"{'pen mm':>6}  reason"]
     for c in candidates:
         t = c.timings
-        pen = c.details.get("max_penetration")
+        pen = BaselineRecord.from_details(c.details).max_penetration
         rows.append(f"{c.alpha:+7.3f} {c.status:22} {t.get('ik', 0.0):6.3f} "
                     f"{t.get('optimisation', 0.0):6.3f} {t.get('check', 0.0):7.3f} "
                     f"{'-' if pen is None else f'{pen * 1000:.1f}':>6}  {c.reason}")

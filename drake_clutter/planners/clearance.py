@@ -400,15 +400,16 @@ class PathOptimiser:
 
 
 def optimise_and_check(optimiser: PathOptimiser, q_start: np.ndarray, q_end: np.ndarray,
-                       X_WG: RigidTransform, timings: dict, details: dict
-                       ) -> tuple[OptResult, CheckResult | None]:
+                       X_WG: RigidTransform, timings: dict
+                       ) -> tuple[OptResult, CheckResult | None, dict]:
     """Sec. IV on one straight path: the joint-space line from ``q_start`` to ``q_end`` (7
     angles each, rad) over ``num_knots`` knots, optimised with the tool frame's last pose kept
     at ``X_WG`` (W), then the dense check; when the check finds penetration, one more
     optimisation from that result with ``opt_refine_substeps`` samples per interval (the
     motion between the first pass's samples can exceed d_safe where the arm swings fast).
-    Returns (OptResult, CheckResult, or None when the optimisation failed); ``timings`` gets
-    the optimisation and check seconds, ``details`` what the optimisation did (`_opt_details`).
+    Returns (OptResult, CheckResult or None when the optimisation failed, what the
+    optimisation did: ``opt_passes`` and `_opt_details`); ``timings`` gets the optimisation
+    and check seconds.
     """
     config, clearance = optimiser.config, optimiser.clearance
     q_init = interpolate(q_start, q_end, config.num_knots)
@@ -416,18 +417,17 @@ def optimise_and_check(optimiser: PathOptimiser, q_start: np.ndarray, q_end: np.
     opt = optimiser.optimise(q_init, X_WG)
     check = dense_check(clearance, opt.q, config) if opt.feasible else None
     checking = check.seconds if check else 0.0
-    details["opt_passes"] = 1
+    passes = 1
     if check is not None and not check.passed and config.opt_refine_substeps > 0:
         second = optimiser.optimise(opt.q, X_WG, config.opt_refine_substeps)
-        details["opt_passes"] = 2
+        passes = 2
         if second.feasible:
             opt, check = second, dense_check(clearance, second.q, config)
             checking += check.seconds
     timings["optimisation"] = time.perf_counter() - tic - checking
     if check is not None:
         timings["check"] = checking
-    details.update(_opt_details(optimiser, q_init, opt, X_WG))
-    return opt, check
+    return opt, check, {"opt_passes": passes, **_opt_details(optimiser, q_init, opt, X_WG)}
 
 
 def _opt_details(optimiser: PathOptimiser, q_init, opt: OptResult, X_WG) -> dict:

@@ -342,6 +342,26 @@ def test_candidates_carry_a_complete_trajectory(bookshelf, bookshelf_plan):
         assert np.all(speed <= np.array(limits) * CONFIG.velocity_limit_scale + 1e-6)
 
 
+def test_each_candidate_stores_the_record_the_planner_built(bookshelf, bookshelf_plan):
+    """Every angle's details are its `BaselineRecord`, written and read back unchanged; a
+    failed IK (the target 1.5 m beyond its place) leaves the optimisation's and the check's
+    fields out."""
+    x, y, yaw = bookshelf.target_box.pose
+    beyond = bl.plan_baseline(_target_only(bookshelf, (x + 1.5, y)), CONFIG, [0.0])
+    assert beyond[0].status == "ik_failed"
+    for c in bookshelf_plan + beyond:
+        record = bl.BaselineRecord.from_details(c.details)
+        assert record.to_details() == c.details
+        assert record.height > 0 and len(record.start_xyz) == len(record.pregrasp_xyz) == 3
+        if c.status == "ik_failed":
+            assert set(c.details) == {"height", "start_xyz", "pregrasp_xyz"}
+            assert record.score() is None
+            continue
+        assert record.opt_passes in (1, 2) and len(record.c_vel) == 2
+        assert record.check_samples > 0 and record.max_penetration is not None
+        assert record.score() >= 0.0
+
+
 def test_the_optimisation_repairs_a_penetrating_straight_line(bookshelf_plan):
     """At least one angle's straight joint-space line entered the d_safe margin (or the shelf)
     and came out of the optimisation clear."""

@@ -170,5 +170,10 @@ def test_the_push_planners_record_is_what_it_stores():
                 "recovered": {"status": "ik_failed", "reason": "start pose"}}
     clear = {"initialization": "baseline", "clear": ["0.7", "0.8"], "chosen": "0.7",
              "budget": {"spent": False}}
-    for details in (searched, clear):
+    # no start planned: the baseline's failed record kept beside what the budget cut
+    failed = PushRecord.failed({"height": 0.07, "start_xyz": [0.5, 0.0, 0.8]},
+                               {"spent": True}).to_details()
+    assert failed == {"height": 0.07, "start_xyz": [0.5, 0.0, 0.8], "budget": {"spent": True}}
+    assert PushRecord.from_details(failed).start == {"height": 0.07, "start_xyz": [0.5, 0.0, 0.8]}
+    for details in (searched, clear, failed):
         assert PushRecord.from_details(details).to_details() == details

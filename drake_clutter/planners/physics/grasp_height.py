@@ -9,6 +9,7 @@ top deeper than ``starts.press_tolerance`` nor enters a non-target box's side de
 
 from __future__ import annotations
 
+from drake_clutter.planners.baseline import BaselineRecord
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.geometry import box_depths, contact_flags
@@ -25,7 +26,8 @@ def choose_height(context: PlanningContext, candidate: Candidate,
     paths = {k: c.trajectory.q for k, c in found.items()}
     depths = box_depths(context.arm(), paths, context.config, context.scene.target)
     scores = contact_flags(depths, context.config)
-    record = {start_key(*key): {"height": c.details.get("height"), "yaw_offset": key[1],
+    record = {start_key(*key): {"height": BaselineRecord.from_details(c.details).height,
+                                "yaw_offset": key[1],
                                 "press": depths[key][0], "side": depths[key][1]}
               for key, c in found.items()}
     chosen = min(found, key=lambda k: (*scores[k], list(found).index(k)))

@@ -24,11 +24,11 @@ stage runs.
 Failure modes: a phi stage whose start phi cannot simulate restarts from the start path
 (``started_from``); any other failure is a candidate with status ``optimisation_failed`` and a
 reason, never an exception. ``physics.time_budget`` (s) cuts solvers at the deadline and leaves
-out the phi stages and ``select`` once it has passed (``details["time_budget"]``).
+out the phi stages and ``select`` once it has passed (the record's ``time_budget``).
 
-Returns a `trajectory.Candidate` (planner "physics"): ``details`` per stage (cost and term
-history, iterations, stop reason), ``timings`` (s per stage) and ``details["feedback"]`` (the
-last phi stage's gains K_t, k_t and the kept boxes they refer to). How the stages came to be:
+Returns a `trajectory.Candidate` (planner "physics"): ``details`` its `record.PhysicsRecord`
+(per stage: cost and term history, iterations, stop reason; the last phi stage's gains K_t,
+k_t and the kept boxes they refer to), ``timings`` (s per stage). How the stages came to be:
 docs/physics_planner.md and docs/log/physics_planner.md.
 """
 
@@ -49,6 +49,7 @@ from drake_clutter.planners.geometry import pregrasp_aim
 from drake_clutter.planners.loop import refine_each
 from drake_clutter.planners.physics.grasp_height import choose_height
 from drake_clutter.planners.physics.kinematic import postprocess, preprocess
+from drake_clutter.planners.physics.record import PhysicsRecord
 from drake_clutter.planners.physics.stage import phi_stage_or_restart, select_path
 from drake_clutter.scene.scenes import Scene
 from drake_clutter.solvers import ilqr
@@ -117,9 +118,11 @@ class Budget:
                 "longest_step": self.longest_step}
 
 
-def _failed(candidate: Candidate, reason: str, timings: dict, details: dict) -> Candidate:
+def _failed(candidate: Candidate, reason: str, timings: dict,
+            record: PhysicsRecord) -> Candidate:
     return Candidate(candidate.alpha, CandidateStatus.OPTIMISATION_FAILED, reason,
-                     candidate.trajectory, planner="physics", timings=timings, details=details)
+                     candidate.trajectory, planner="physics", timings=timings,
+                     details=record.to_details())
 
 
 def optimise_candidate(context: PlanningContext, candidate: Candidate, index: int | None = None,
@@ -135,18 +138,18 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate, index: in
     scene, config = context.scene, context.config
     cfg = config.physics
     budget = Budget(cfg.time_budget, start=started or time.monotonic())
-    timings, details = {}, {"stages": {}, "initialization": candidate.planner}
+    timings, record = {}, PhysicsRecord(initialization=candidate.planner)
     if config.starts.grasp_heights or config.starts.approach_offsets:
         tic = time.perf_counter()
         try:
             heights = Deadline(cfg.time_budget, start=budget.start)
-            candidate, details["grasp_height"] = choose_height(context, candidate, heights)
+            candidate, record.grasp_height = choose_height(context, candidate, heights)
             budget.skipped += heights.cut
             budget.longest_step = heights.longest_step
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep the start
-            details["grasp_height"] = {"error": str(exc)}
+            record.grasp_height = {"error": str(exc)}
         timings["height"] = time.perf_counter() - tic
-    details["start_score"] = BaselineRecord.from_details(candidate.details).score(config.baseline)
+    record.start_score = BaselineRecord.from_details(candidate.details).score(config.baseline)
     q = baseline_q = np.array(candidate.trajectory.q, dtype=float)
     # c_grasp aims where the start path's pads end (its pre-grasp), carried by the target.
     aim_T = pregrasp_aim(context.arm(), baseline_q[-1], scene.target,
@@ -156,10 +159,10 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate, index: in
         q, result = preprocess(context, q, budget.deadline)
     except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
         timings["pre"] = time.perf_counter() - tic
-        return _failed(candidate, f"pre stage: {exc}", timings, details)
+        return _failed(candidate, f"pre stage: {exc}", timings, record)
     timings["pre"] = time.perf_counter() - tic
     budget.note("pre", result)
-    details["stages"]["pre"] = _stage_record(result, timings["pre"])
+    record.stages["pre"] = _stage_record(result, timings["pre"])
     q_pre = q
     stages = (("sphere", "sphere_gripper", min(cfg.sphere_iterations, cfg.iterations)),
               ("full", "capsules", cfg.iterations - min(cfg.sphere_iterations, cfg.iterations)))
@@ -181,39 +184,39 @@ def optimise_candidate(context: PlanningContext, candidate: Candidate, index: in
                                                     others, budget.deadline, aim_T)
         except (RuntimeError, ValueError) as exc:  # PhiFailure, Drake or numerical errors
             timings[name] = time.perf_counter() - tic
-            return _failed(candidate, f"{name} stage: {exc}", timings, details)
+            return _failed(candidate, f"{name} stage: {exc}", timings, record)
         timings[name] = time.perf_counter() - tic
-        details["stages"][name] = _stage_record(result, timings[name], info)
+        record.stages[name] = _stage_record(result, timings[name], info)
         budget.note(name, result)
-        budget.learn(details["stages"][name])
+        budget.learn(record.stages[name])
         last = (result, info)
     tic = time.perf_counter()
     try:
         q, result = postprocess(context, q, budget.deadline)
     except (RuntimeError, ValueError) as exc:  # Drake or numerical errors
         timings["post"] = time.perf_counter() - tic
-        return _failed(candidate, f"post stage: {exc}", timings, details)
+        return _failed(candidate, f"post stage: {exc}", timings, record)
     timings["post"] = time.perf_counter() - tic
-    details["stages"]["post"] = _stage_record(result, timings["post"])
+    record.stages["post"] = _stage_record(result, timings["post"])
     budget.note("post", result)
     chosen = "post"
     if cfg.select_in_phi and not budget.skip("select", phi=True):
         tic = time.perf_counter()
         paths = {"post": q, "pre": q_pre, "baseline": baseline_q}
         try:
-            chosen, details["select"] = select_path(context, paths, pool,
+            chosen, record.select = select_path(context, paths, pool,
                                                     candidate.trajectory.times, aim_T)
         except (RuntimeError, ValueError) as exc:  # Drake or numerical errors: keep post
-            chosen, details["select"] = "post", {"chosen": "post", "error": str(exc)}
+            chosen, record.select = "post", {"chosen": "post", "error": str(exc)}
         q = paths[chosen]
         timings["select"] = time.perf_counter() - tic
-    details["time_budget"] = budget.record(chosen)
+    record.time_budget = budget.record(chosen)
     if last is not None:
-        details["feedback"] = {"boxes": last[1]["kept_boxes"], "K": last[0].K.tolist(),
+        record.feedback = {"boxes": last[1]["kept_boxes"], "K": last[0].K.tolist(),
                                "k": last[0].k.tolist()}
     trajectory = Trajectory(candidate.trajectory.times.copy(), q)
     return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, planner="physics",
-                     timings=timings, details=details)
+                     timings=timings, details=record.to_details())
 
 
 
@@ -236,7 +239,7 @@ def stages_table(candidates: list[Candidate]) -> str:
     rows = [f"{'alpha':>7} {'status':20} {'pre s':>6} {'sphere s':>8} {'full s':>7} "
             f"{'post s':>6} {'cost start':>11} {'cost end':>11}  reason"]
     for c in candidates:
-        t, stages = c.timings, c.details.get("stages", {})
+        t, stages = c.timings, PhysicsRecord.from_details(c.details).stages
         phi = [stages[n] for n in ("sphere", "full") if n in stages]
         start = f"{phi[0]['cost_history'][0]:.4g}" if phi else "-"
         end = f"{phi[-1]['cost_history'][-1]:.4g}" if phi else "-"

@@ -1,10 +1,14 @@
-"""What Sec. V's physics planner did at one approach angle, read from its candidate's
-``details`` (`pipeline.optimise_candidate` writes them), and the score it ranks by.
+"""What Sec. V's physics planner did at one approach angle (`PhysicsRecord`), and the score it
+ranks by.
 
-The record's keys: ``stages`` (per stage: iterations, stop reason, ``cost_history``,
-``term_history``, the line-search ``log``), ``select`` (the objectives in phi of the paths it
-chose among and the ``chosen`` one), ``start_score`` (the baseline's score of the path it
-started from), ``grasp_height``, ``time_budget``.
+The pipeline (`pipeline.optimise_candidate`) fills a record stage by stage and stores it as the
+candidate's ``details`` (`PhysicsRecord.to_details`); a stored one reads back with
+`PhysicsRecord.from_details`. The keys: ``initialization`` (the planner the start came from),
+``stages`` (per stage: iterations, stop reason, ``cost_history``, ``term_history``, the
+line-search ``log``), ``grasp_height`` (the straight starts measured and the one chosen),
+``start_score`` (the baseline's score of the path it started from), ``select`` (the objectives
+in phi of the paths it chose among and the ``chosen`` one), ``time_budget`` (what the budget
+cut), ``feedback`` (the last phi stage's gains and the boxes they refer to).
 """
 
 from __future__ import annotations
@@ -15,24 +19,44 @@ import numpy as np
 
 PHI_STAGES = ("sphere", "full")  # the stages through phi, in order
 SELECTIONS = ("post", "pre", "baseline", "search")  # the paths ``select`` chooses among
+# the keys written whether or not they hold anything (``start_score`` may be None)
+_ALWAYS = ("initialization", "stages", "start_score")
 
 
-@dataclass(frozen=True)
+@dataclass
 class PhysicsRecord:
-    """A physics candidate's record (module docstring); fields absent from ``details`` are
-    empty."""
+    """A physics candidate's record (module docstring), filled by the pipeline as its stages
+    run; fields absent from ``details`` are empty."""
 
+    initialization: str = ""
     stages: dict = field(default_factory=dict)
-    select: dict = field(default_factory=dict)
+    grasp_height: dict = field(default_factory=dict)
     start_score: float | None = None
+    select: dict = field(default_factory=dict)
+    time_budget: dict = field(default_factory=dict)
+    feedback: dict = field(default_factory=dict)
 
     @classmethod
     def from_details(cls, details: dict) -> PhysicsRecord:
         """The record of a candidate's ``details`` (stored or fresh)."""
         start = details.get("start_score")
-        return cls(stages=dict(details.get("stages") or {}),
+        return cls(initialization=str(details.get("initialization", "")),
+                   stages=dict(details.get("stages") or {}),
+                   grasp_height=dict(details.get("grasp_height") or {}),
+                   start_score=None if start is None else float(start),
                    select=dict(details.get("select") or {}),
-                   start_score=None if start is None else float(start))
+                   time_budget=dict(details.get("time_budget") or {}),
+                   feedback=dict(details.get("feedback") or {}))
+
+    def to_details(self) -> dict:
+        """The record as a candidate's ``details`` (JSON-ready; empty fields other than
+        ``initialization``, ``stages`` and ``start_score`` left out), the inverse of
+        `from_details`."""
+        out = {"stages": self.stages, "initialization": self.initialization,
+               "grasp_height": self.grasp_height, "start_score": self.start_score,
+               "select": self.select, "time_budget": self.time_budget,
+               "feedback": self.feedback}
+        return {k: v for k, v in out.items() if v or k in _ALWAYS}
 
     bent = False  # the physics planner's paths are iLQR's, not a family's members
 

@@ -87,7 +87,7 @@ def push_candidate(context: PlanningContext, candidate: Candidate, index: int,
 def failed(candidate: Candidate, timings: dict, deadline: Deadline) -> Candidate:
     """The baseline's failed ``candidate``, relabelled "push", when no start planned at its
     angle, turned or not: its status and reason, the starts' ``timings`` (s) added."""
-    details = dict(candidate.details) | {"budget": deadline.record()}
+    details = PushRecord.failed(candidate.details, deadline.record()).to_details()
     return Candidate(candidate.alpha, candidate.status, candidate.reason, candidate.trajectory,
                      "push", dict(candidate.timings) | timings, details)
 
@@ -110,9 +110,10 @@ def push_table(candidates: list[Candidate]) -> str:
     in phi, the members drawn and kept, and the seconds."""
     rows = [f"{'alpha':>7} {'chosen':>22} {'P phi':>6} {'start':>6} {'kept':>9} {'s':>6}"]
     for c in candidates:
-        search = (c.details or {}).get("search")
-        if c.ok and (c.details or {}).get("clear"):
-            rows.append(f"{c.alpha:7.3f} {c.details['chosen'] + ' (clear)':>22} {'':>6} {'':>6} "
+        record = PushRecord.from_details(c.details or {})
+        search = record.search
+        if c.ok and record.clear:
+            rows.append(f"{c.alpha:7.3f} {record.chosen + ' (clear)':>22} {'':>6} {'':>6} "
                         f"{'':>9} {sum(c.timings.values()):6.1f}")
             continue
         if not c.ok or not search:
@@ -122,7 +123,7 @@ def push_table(candidates: list[Candidate]) -> str:
         counts = search["counts"]
         chosen, start = (verdicts.get(search[k]) or {"p_success": math.nan}
                          for k in ("chosen", "best_start"))
-        rows.append(f"{c.alpha:7.3f} {c.details['chosen']:>22} "
+        rows.append(f"{c.alpha:7.3f} {record.chosen:>22} "
                     f"{chosen['p_success']:6.2f} {start['p_success']:6.2f} "
                     f"{counts['feasible']:>4}/{counts['drawn']:<4} "
                     f"{sum(c.timings.values()):6.1f}")

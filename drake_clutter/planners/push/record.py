@@ -8,7 +8,9 @@ that keep off the boxes; the first is the plan), ``chosen`` (the name of the ret
 start ``"<height>"``, a bent member ``"<start>/<draw>"``, or `FALLBACK`), ``search`` (the
 search's record: ``verdicts`` per judged path, ``counts``, ``chosen``, ``best_start``),
 ``recovered`` (the baseline's failure a turned or other-height start replaced), ``budget``
-(what the time budget cut).
+(what the time budget cut). When no start planned at the angle, the candidate is the
+baseline's failure and its initializing planner's record is kept beside these keys
+(``start``, written at the top level as stores have it).
 """
 
 from __future__ import annotations
@@ -21,6 +23,8 @@ FALLBACK = "baseline"
 # the score of a clear straight start (no search: such paths succeed in about 99 % of the
 # judge's replays) and of the fallback (P(success) 0 and the worst grade in phi)
 CLEAR_SCORE, FALLBACK_SCORE = -1.0, 0.04
+# the record's own keys in ``details``
+_KEYS = ("initialization", "clear", "search", "chosen", "budget", "recovered")
 
 
 @dataclass(frozen=True)
@@ -33,6 +37,7 @@ class PushRecord:
     recovered: dict = field(default_factory=dict)
     budget: dict = field(default_factory=dict)
     initialization: str = ""
+    start: dict = field(default_factory=dict)
 
     @classmethod
     def from_details(cls, details: dict) -> PushRecord:
@@ -41,7 +46,14 @@ class PushRecord:
                    search=dict(details.get("search") or {}),
                    recovered=dict(details.get("recovered") or {}),
                    budget=dict(details.get("budget") or {}),
-                   initialization=str(details.get("initialization", "")))
+                   initialization=str(details.get("initialization", "")),
+                   start={k: v for k, v in details.items() if k not in _KEYS})
+
+    @classmethod
+    def failed(cls, start_details: dict, budget: dict) -> PushRecord:
+        """The record of a candidate that planned no start: its initializing planner's
+        ``start_details`` kept, what the ``budget`` cut."""
+        return cls(budget=budget, start=dict(start_details))
 
     def to_details(self) -> dict:
         """The record as a candidate's ``details`` (JSON-ready; empty fields left out), the
@@ -49,7 +61,7 @@ class PushRecord:
         out = {"initialization": self.initialization, "clear": list(self.clear),
                "search": self.search, "chosen": self.chosen, "budget": self.budget,
                "recovered": self.recovered}
-        return {k: v for k, v in out.items() if v or k == "chosen"}
+        return self.start | {k: v for k, v in out.items() if v}
 
     @property
     def bent(self) -> bool:

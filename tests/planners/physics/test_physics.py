@@ -548,6 +548,11 @@ def test_pipeline_runs_every_stage_and_records_it(scene, fig5_candidate, control
     assert all(values[n] is None or values[select["chosen"]] <= values[n] for n in values)
     if select["chosen"] == "baseline" and height["chosen"] == "0.5":  # the start unchanged
         np.testing.assert_array_equal(plan.trajectory.q, fig5_candidate.trajectory.q)
+    from drake_clutter.planners.physics.record import PhysicsRecord
+
+    record = PhysicsRecord.from_details(plan.details)  # the record the pipeline stored
+    assert record.to_details() == plan.details and record.initialization == "baseline"
+    assert record.time_budget["returned"] == record.chosen == select["chosen"]
     feedback = plan.details["feedback"]
     nz = 8 + 12 * len(feedback["boxes"]) + 8
     assert np.asarray(feedback["K"]).shape == (fig5_candidate.trajectory.num_knots - 1, 8, nz)

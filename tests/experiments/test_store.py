@@ -105,6 +105,10 @@ def _rows(db: Path) -> list[tuple]:
                            "FROM results ORDER BY scene, angle").fetchall()
 
 
+def _foreground_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 # How a run is stopped: the signal, sent to the runner alone or to its whole process group (a
 # terminal's Ctrl-C, the machine killing the job), and the exit status the runner then has.
 STOPS = {"sigkill of the job": (signal.SIGKILL, True, -signal.SIGKILL),
@@ -123,9 +127,12 @@ def test_a_stopped_run_ends_its_workers_and_resumes_losing_and_doubling_nothing(
     command = [sys.executable, "-m", "drake_clutter.cli", "experiment", "run", str(spec),
                "--db", str(db), "--workers", "2", "--no-progress"]
     # Its own session, so that a signal to the group reaches the runner and its workers
-    # together and none reaches pytest.
+    # together and none reaches pytest; Ctrl-C as in a foreground terminal, even where the
+    # suite itself runs in the background (there a shell starts it with SIGINT ignored, and
+    # the runner would inherit that).
     proc = subprocess.Popen(command, cwd=REPO, start_new_session=True,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            preexec_fn=_foreground_sigint)
     try:
         deadline = time.monotonic() + 120
         while _count(db) < 1 and proc.poll() is None and time.monotonic() < deadline:

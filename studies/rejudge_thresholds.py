@@ -7,7 +7,8 @@ of two planners' stores re-judged at each setting, side by side.
 
 Each ``--setting`` names one judge setting and the two stores judged under it
 (`drake-clutter experiment rejudge STORE --db NEW --set evaluation.FIELD=VALUE`): the
-baseline's and the compared planner's, the same initializations. Printed per setting, for each
+baseline's and the compared planner's, the same initializations; a store that holds both (a
+tier run) may be named twice. Printed per setting, for each
 planner: Table III (scenes with success or partial, nominal replays; aggregate, bookshelf,
 refrigerator), Table IV (the trajectories' classes, nominal replays), the robust P(success)
 mean; and the paired compared - baseline P(success) per initialization with its seeded
@@ -28,6 +29,7 @@ from drake_clutter.common.config import ReportConfig
 from drake_clutter.experiments.paired import bootstrap_interval, row_grade, row_p_success, verdict
 from drake_clutter.experiments.report import table_iii, table_iv
 from drake_clutter.experiments.store import Store
+from drake_clutter.planners.registry import BASELINE
 
 CLASSES = ("success", "partial_success", "failure_to_grasp", "objects_falling",
            "kinematic_failure")
@@ -35,13 +37,15 @@ PAPER = {"baseline": ("70.0 %", "36.9 / 1.1 / 32.9 / 1.4 / 27.7"),
          "physics-aware": ("84.7 %", "48.7 / 2.2 / 27.2 / 1.3 / 20.6")}
 
 
-def rows_of(path: str) -> dict[tuple[str, int], dict]:
-    """(scene, angle) -> row of a store holding one planner under one configuration."""
+def rows_of(path: str, baseline: bool) -> dict[tuple[str, int], dict]:
+    """(scene, angle) -> row of the baseline's plans in a store (``baseline``), or of the one
+    other planner's; either under one configuration."""
     with Store(path, read_only=True) as store:
-        rows = store.rows()
+        rows = [r for r in store.rows() if (r["planner"] == BASELINE) == baseline]
     names = {(r["config_name"], r["planner"]) for r in rows}
     if len(names) != 1:
-        raise SystemExit(f"rejudge_thresholds: {path}: holds {sorted(names)}, one planner "
+        wanted = "the baseline" if baseline else "one compared planner"
+        raise SystemExit(f"rejudge_thresholds: {path}: holds {sorted(names)}, {wanted} "
                          "under one configuration wanted")
     return {(r["scene"], int(r["angle"])): r for r in rows}
 
@@ -75,7 +79,7 @@ def report(settings_stores: list[tuple[str, str, str]]) -> str:
     levels = ["", "| setting | " + " | ".join(f"{e} {n}" for e, n in _levels()) + " |",
               "|---|" + "---:|" * len(_levels())]
     for label, base_path, compared_path in settings_stores:
-        base, compared = rows_of(base_path), rows_of(compared_path)
+        base, compared = rows_of(base_path, True), rows_of(compared_path, False)
         keys = sorted(set(base) & set(compared))
         pairs = [(base[k], compared[k]) for k in keys]
         for name, chosen in (("baseline", [b for b, _ in pairs]),

@@ -207,6 +207,9 @@ def _cmd_experiment_rejudge(args) -> int:
     summary = rejudge(args.source, args.db, args.overrides, args.workers,
                       progress=not args.no_progress, current_judge=args.current_judge)
     print(format_summary(summary))
+    if summary["carried"]:
+        print(f"{summary['carried']} rows kept their outcome unreplayed: no replay of theirs "
+              "is a kinematic failure, and only a force limit was raised")
     return 0
 
 

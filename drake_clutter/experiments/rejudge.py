@@ -8,6 +8,13 @@ configuration name, with the source row's planning timings and its own evaluatio
 Rows without a trajectory (the planner found none) are carried over with the new hash as they
 are; so are failed rows (an exception, a dead worker), which keep their error. Like an
 experiment run, it is resumable: a row already in the destination is skipped.
+
+A raised force limit is cheap to re-judge (`unaffected`): a replay stops at its first kinematic
+failure and never otherwise reads ``max_static_force``, so a replay that ended in another class
+never crossed the lower limit and cannot cross a higher one. When the judge's settings differ
+from the stored ones only by a raised ``max_static_force``, a row none of whose replays (the
+nominal and the robust ones) is a kinematic failure keeps its stored outcome and evaluation
+time without a replay; only the rows with a kinematic failure are replayed.
 """
 
 from __future__ import annotations
@@ -26,6 +33,7 @@ from drake_clutter.common.config import (
 from drake_clutter.common.typed_yaml import from_data
 
 JUDGE_SECTIONS = ("evaluation", "report", "viz")  # settings no planner reads
+RAISED_LIMITS = ("max_static_force",)  # judge limits whose crossing only ends a replay early
 
 
 def check_overrides(overrides: Sequence[str], file: str = "<command line>") -> None:
@@ -46,6 +54,20 @@ def changed_config(data: dict, overrides: Sequence[str]) -> Config:
     return config_from_data(upgrade_stored(data), overrides)
 
 
+def unaffected(row: dict, stored: dict, changed: dict) -> bool:
+    """True when re-judging ``row`` under the ``evaluation`` section ``changed`` (data) must give
+    back its outcome under ``stored``: the two sections differ only by raised `RAISED_LIMITS`
+    and none of the row's replays (nominal and robust) is a kinematic failure."""
+    differ = {key for key in set(stored) | set(changed) if stored.get(key) != changed.get(key)}
+    if not differ or not differ <= set(RAISED_LIMITS):
+        return False
+    if any(changed[key] < stored[key] for key in differ):
+        return False
+    outcome = row["outcome"] or {}
+    kinds = [outcome.get("kind")] + list((outcome.get("robust") or {}).get("kinds", []))
+    return "kinematic_failure" not in kinds
+
+
 def rejudge_unit(task: dict) -> dict:
     """Replays one stored row's plan under ``task["config"]`` (data); the result as
     `specs.run_unit` returns it, or the row's own result when it has no trajectory."""
@@ -57,7 +79,7 @@ def rejudge_unit(task: dict) -> dict:
     row = task["row"]
     carried = {"alpha": row["alpha"], "plan": row["plan"], "outcome": row["outcome"],
                "timings": row["timings"], "error": row["error"]}
-    if row["error"] or not (row["plan"] or {}).get("trajectory"):
+    if task.get("carry") or row["error"] or not (row["plan"] or {}).get("trajectory"):
         return carried
     try:
         config = from_data(Config, task["config"], file="<stored configuration>")
@@ -78,11 +100,14 @@ def rejudge_unit(task: dict) -> dict:
 
 
 def rejudge(source: str, destination: str, overrides: Sequence[str], workers: int = 1,
-            progress: bool = True, current_judge: bool = False) -> dict:
+            progress: bool = True, current_judge: bool = False,
+            carry_unaffected: bool = True) -> dict:
     """Re-judges every row of the store ``source`` into ``destination`` (module docstring);
     with ``current_judge`` the stored ``evaluation`` section is first replaced by today's
-    defaults (the judge's defaults changed since the store was written). Returns the summary
-    `executors.format_summary` prints."""
+    defaults (the judge's defaults changed since the store was written); with
+    ``carry_unaffected`` (the default) the rows `unaffected` by the change keep their outcome
+    unreplayed, otherwise every plan is replayed. Returns the summary `executors.format_summary`
+    prints, with ``carried``: the rows kept unreplayed."""
     from drake_clutter.experiments.executors import StoreWriter, run_local
     from drake_clutter.experiments.specs import config_hash
     from drake_clutter.experiments.store import Store, StoreError
@@ -103,11 +128,13 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
                 data["evaluation"] = config_to_data(Config())["evaluation"]
             config = changed_config(data, overrides)
             hashes[row["config_hash"]] = (config_hash(config), config_to_data(config), stored)
-        new_hash, config_data, _ = hashes[row["config_hash"]]
+        new_hash, config_data, stored = hashes[row["config_hash"]]
+        carry = carry_unaffected and unaffected(
+            row, upgrade_stored(dict(stored["config"]))["evaluation"], config_data["evaluation"])
         unit = {"scene": row["scene"], "planner": row["planner"], "angle": row["angle"],
                 "config_hash": new_hash, "config_name": row["config_name"], "kind": row["env"],
                 "num_objects": row["num_objects"]}
-        tasks.append({**unit, "row": row, "config": config_data})
+        tasks.append({**unit, "row": row, "config": config_data, "carry": carry})
     with Store(destination) as out:
         out.claim()
         for new_hash, config_data, stored in hashes.values():
@@ -121,5 +148,6 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
             run_local(todo, writer, workers, work=rejudge_unit)
         finally:
             writer.close()
-    return writer.summary(f"rejudge of {source}", len(tasks), len(tasks) - len(todo),
-                          time.perf_counter() - started, "local")
+    summary = writer.summary(f"rejudge of {source}", len(tasks), len(tasks) - len(todo),
+                             time.perf_counter() - started, "local")
+    return {**summary, "carried": sum(bool(t["carry"]) for t in todo)}

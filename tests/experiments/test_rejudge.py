@@ -69,3 +69,36 @@ def test_a_configuration_stored_before_the_judge_in_phi_had_its_section_is_read(
     config = changed_config(old, ["evaluation.max_static_force=75"])
     assert config.phi_judge == Config().phi_judge and config.starts == Config().starts
     assert config.evaluation.max_static_force == 75
+
+
+def test_a_raised_force_limit_replays_only_the_kinematic_failures(source, tmp_path):
+    lazy = rejudge(str(source), str(tmp_path / "lazy.db"), ["evaluation.max_static_force=150"],
+                   workers=1, progress=False)
+    full = rejudge(str(source), str(tmp_path / "full.db"), ["evaluation.max_static_force=150"],
+                   workers=1, progress=False, carry_unaffected=False)
+    with Store(source, create=False) as store:
+        before = {(r["scene"], r["angle"]): r for r in store.rows()}
+    failures = sum(r["kind"] == "kinematic_failure" for r in before.values())
+    assert lazy["carried"] == len(before) - failures and full["carried"] == 0
+    with Store(tmp_path / "lazy.db", create=False) as a, \
+            Store(tmp_path / "full.db", create=False) as b:
+        lazy_rows = {(r["scene"], r["angle"]): r for r in a.rows()}
+        full_rows = {(r["scene"], r["angle"]): r for r in b.rows()}
+    for key, row in lazy_rows.items():
+        assert row["outcome"] == full_rows[key]["outcome"]  # the replay would give it back
+        assert row["config_hash"] == full_rows[key]["config_hash"] != before[key]["config_hash"]
+
+
+@pytest.mark.parametrize(("changed", "kinds", "carried"), [
+    ({"max_static_force": 150.0}, ["success", "failure_to_grasp"], True),
+    ({"max_static_force": 150.0}, ["success", "kinematic_failure"], False),
+    ({"max_static_force": 30.0}, ["success", "success"], False),  # lowered: may now fail
+    ({"max_tilt": 0.5}, ["success", "success"], False),  # a class taken at the end
+    ({}, ["success", "success"], False),
+])
+def test_which_rows_a_changed_judge_leaves_as_they_were(changed, kinds, carried):
+    from drake_clutter.experiments.rejudge import unaffected
+
+    stored = {"max_static_force": 50.0, "max_tilt": 0.35, "robust_replays": 2}
+    row = {"outcome": {"kind": kinds[0], "robust": {"kinds": kinds}}}
+    assert unaffected(row, stored, {**stored, **changed}) is carried

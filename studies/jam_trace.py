@@ -22,6 +22,12 @@ plan and, where the store holds it, the push planner's.
 Printed: one block per initialization and a summary: how many paths jam, on which box (the
 target, a box the pre-grasp pose enters, another), held by what, and how late.
 
+With ``--grasp-only`` nothing is rolled out: for every baseline row of the store with a plan
+(all environments, levels and planners), how deep the capsule arm at the plan's last knot
+(the pre-grasp pose) enters its deepest other box at rest, against the stored robust
+P(success), per environment, level and planner: whether a grasp is reached where the arm at
+the grasp has no room among the boxes as they stand.
+
 Its dated results: docs/log/push_planner.md.
 """
 
@@ -166,6 +172,34 @@ def initialization(task) -> dict:
             "kinds": {"baseline": base["kind"], "push": None if push is None else push["kind"]}}
 
 
+def grasp_room(db: str, config, deep: float) -> str:
+    """The ``--grasp-only`` table (module docstring); ``deep`` (m) splits the plans."""
+    with Store(db, read_only=True) as store:
+        rows = store.rows()
+    groups: dict = {}
+    scenes: dict = {}
+    for r in rows:
+        if not (r["plan"] or {}).get("trajectory") or r["p_success"] is None:
+            continue
+        if r["scene"] not in scenes:
+            scene = stored_scene(r["scene"], config)
+            scenes[r["scene"]] = (scene, PlanningContext(scene, config).arm())
+        scene, geometry = scenes[r["scene"]]
+        q = np.asarray(r["plan"]["trajectory"]["q"], float)
+        depth = max((-c.distance for c in geometry.contacts(q[-1], max_distance=0.0,
+                                                            obstacles="boxes")
+                     if c.obstacle != scene.target), default=0.0)
+        key = (r["env"], r["num_objects"], r["planner"], depth > deep)
+        groups.setdefault(key, []).append((depth, r["p_success"]))
+    lines = [f"| env | boxes | planner | its last knot enters a box by > {deep * 1e3:.0f} mm | "
+             "plans | median depth (mm) | robust P(success) |", "|---|---:|---|---|---:|---:|---:|"]
+    for (env, n, planner, entered), items in sorted(groups.items()):
+        depths, p = zip(*items, strict=True)
+        lines.append(f"| {env} | {n} | {planner} | {'yes' if entered else 'no'} | {len(items)} "
+                     f"| {np.median(depths) * 1e3:.0f} | {np.mean(p):.3f} |")
+    return "\n".join(lines)
+
+
 def summary(results: list[dict]) -> str:
     """Counts over every traced path (module docstring)."""
     where, held, pushed, late, n = Counter(), Counter(), Counter(), [], 0
@@ -227,9 +261,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", help="JSON-lines file of the traces")
     parser.add_argument("--set", dest="overrides", action="append", default=[])
+    parser.add_argument("--grasp-only", action="store_true")
+    parser.add_argument("--deep", type=float, default=0.005, help="m (--grasp-only)")
     args = parser.parse_args(argv)
     try:
         config = load_config(None, args.overrides)
+        if args.grasp_only:
+            print(grasp_room(args.db, config, args.deep))
+            return 0
         rows = rows_of(args.db, args.env, args.levels, args.limit)
     except InputError as err:
         print(err, file=sys.stderr)

@@ -169,7 +169,9 @@ def initialization(task) -> dict:
             "obstructions": [{"box": o.box, "depth": o.depth, "along": o.along,
                               "lateral": o.lateral} for o in found],
             "at_grasp": at_grasp, "paths": traced, "judge": judged,
-            "kinds": {"baseline": base["kind"], "push": None if push is None else push["kind"]}}
+            "kinds": {"baseline": base["kind"], "push": None if push is None else push["kind"]},
+            "push_chosen": None if push is None else
+            ((push["plan"] or {}).get("details") or {}).get("chosen")}
 
 
 def grasp_room(db: str, config, deep: float) -> str:
@@ -238,8 +240,8 @@ def block(r: dict) -> str:
     lines = [f"{r['scene']} angle {r['angle']} (target {r['target']}); straight path meets: "
              f"{obs or 'nothing'}; pre-grasp pose enters: "
              f"{', '.join(f'{b} {d * 1e3:.0f} mm' for b, d in r['at_grasp'].items()) or '-'}",
-             f"  judge: baseline {r['kinds']['baseline']} ({r['judge']['baseline']}); push "
-             f"{r['kinds']['push']} ({r['judge']['push']})"]
+             f"  judge: baseline {r['kinds']['baseline']} ({r['judge']['baseline']}); push, "
+             f"path {r.get('push_chosen')}: {r['kinds']['push']} ({r['judge']['push']})"]
     for name, found in r["paths"].items():
         jam = found["jam"]
         text = ("no jam" if jam is None and "failed" not in found else "phi failed"

@@ -127,17 +127,18 @@ def rejudge(source: str, destination: str, overrides: Sequence[str], workers: in
             if current_judge:
                 data["evaluation"] = config_to_data(Config())["evaluation"]
             config = changed_config(data, overrides)
-            hashes[row["config_hash"]] = (config_hash(config), config_to_data(config), stored)
-        new_hash, config_data, stored = hashes[row["config_hash"]]
-        carry = carry_unaffected and unaffected(
-            row, upgrade_stored(dict(stored["config"]))["evaluation"], config_data["evaluation"])
+            judged = upgrade_stored(dict(stored["config"])).get("evaluation", {})
+            hashes[row["config_hash"]] = (config_hash(config), config_to_data(config), stored,
+                                          judged)
+        new_hash, config_data, _, judged = hashes[row["config_hash"]]
+        carry = carry_unaffected and unaffected(row, judged, config_data["evaluation"])
         unit = {"scene": row["scene"], "planner": row["planner"], "angle": row["angle"],
                 "config_hash": new_hash, "config_name": row["config_name"], "kind": row["env"],
                 "num_objects": row["num_objects"]}
         tasks.append({**unit, "row": row, "config": config_data, "carry": carry})
     with Store(destination) as out:
         out.claim()
-        for new_hash, config_data, stored in hashes.values():
+        for new_hash, config_data, stored, _ in hashes.values():
             out.add_configuration(new_hash, stored["name"],
                                   list(stored["overrides"]) + list(overrides), config_data)
         done = out.done_keys()

@@ -143,7 +143,8 @@ def initialization(task) -> dict:
     """The trace of one initialization (module docstring)."""
     base, push, config, draws, seed = task
     scene = stored_scene(base["scene"], config)
-    geometry = PlanningContext(scene, config).arm()
+    context = PlanningContext(scene, config)
+    geometry = context.arm()
     times = np.asarray(base["plan"]["trajectory"]["times"], float)
     q = np.asarray(base["plan"]["trajectory"]["q"], float)
     frame = approach_frame(geometry, q)
@@ -160,7 +161,7 @@ def initialization(task) -> dict:
             path, error = member_path(geometry, q, member)
         except (RuntimeError, ValueError):
             continue
-        if feasible(path, error, times, PlanningContext(scene, config).clearance, config):
+        if feasible(path, error, times, context.clearance, config):
             paths[f"m{i}"] = path
     traced = trace_paths(scene, config, paths, float(times[1] - times[0]))
     judged = {"baseline": base["outcome"].get("reason", ""),

@@ -27,10 +27,11 @@ not ask whether the arm can reach behind a box to push it that way, nor what fri
 boxes' tipping would do. Where it finds no room, no push can make it.
 
 Printed: one line per initialization and a table per environment and level: initializations,
-the share with room, how many boxes must move, their total travel (m), how many need a chain,
-which way the cleared boxes go in the approach frame (deeper, sideways, back out), and the push
-planner's stored robust P(success) where the pre-grasp pose is not crowded, where room can be
-made and where it cannot; then, pooled, both planners' P(success) by how many boxes must move.
+the share with room, how many box moves it takes (a box moved twice counts twice), their
+total travel (m), how many need a chain, which way the cleared boxes go in the approach frame
+(deeper, sideways, back out), and the push planner's stored robust P(success) where the
+pre-grasp pose is not crowded, where room can be made and where it cannot; then, pooled,
+both planners' P(success) by how many boxes must move.
 ``--from`` prints the tables of earlier ``--out`` files without recomputing.
 
 Its dated results: docs/log/push_planner.md.
@@ -236,7 +237,7 @@ def mean_p(results: list[dict]) -> str:
 
 def table(results: list[dict]) -> str:
     """Per environment and level (module docstring)."""
-    lines = ["| env | boxes | initializations | crowded (> deep) | room made | boxes to move "
+    lines = ["| env | boxes | initializations | crowded (> deep) | room made | box moves "
              "(median) | travel, median (m) | needs a chain | ways (deeper/sideways/back out) "
              "| push P(success): not crowded / room made / not |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---|---|"]

@@ -24,7 +24,8 @@ than the target is entered by more than ``--deep``.
 
 This is geometry only, an upper bound on what a clear-the-grasp move could achieve: it does
 not ask whether the arm can reach behind a box to push it that way, nor what friction and the
-boxes' tipping would do. Where it finds no room, no push can make it.
+boxes' tipping would do. Where it finds no room, no slide within these limits (directions,
+travel, chain length, boxes cleared one at a time, deepest first) makes it.
 
 Printed: one line per initialization and a table per environment and level: initializations,
 the share with room, how many box moves it takes (a box moved twice counts twice), their

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import sqlite3
+from pathlib import Path
 
 import pytest
 
@@ -62,6 +63,19 @@ def test_tiers_load_and_expand():
     assert counts["probe_half"] == 24 * 2 * 2
     assert counts["heldout"] == 24 * 2 * 2
     assert counts["candidates"] == 4 * 6 * 15  # scenes x angles x configurations
+
+
+@pytest.mark.parametrize("path", sorted(
+    (Path(__file__).resolve().parents[2] / "docs" / "specs").glob("*.yaml")),
+    ids=lambda p: p.name)
+def test_the_documented_specs_load_and_expand(path):
+    """Every measurement spec the docs name loads, checks and expands to distinct units,
+    each configuration resolving to its own configuration hash."""
+    spec, file = load_spec(path)
+    units = expand(spec, file)
+    assert units and len({u.key for u in units}) == len(units)
+    hashes = {name: config_hash(resolve_config(spec, name, file)) for name in spec.configurations}
+    assert len(set(hashes.values())) == len(hashes)
 
 
 def test_the_tiers_compare_the_default_planners():

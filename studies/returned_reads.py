@@ -26,7 +26,8 @@ engine, the hold as settling) with the planner's capsule arm and with the judge'
 
 Units whose returned path has no phi verdict are counted by why, not read: a clear start
 (the arm touches no box, so the planner rolls nothing out; the judge's classes of these are
-printed apart), the baseline's path as a fallback or after a spent budget, no plan.
+printed apart), the baseline's path as the fallback (the search's pick read no success or
+partial in phi) or after a spent budget, no plan.
 
 Its dated results: docs/log/push_planner.md.
 """
@@ -65,6 +66,8 @@ def read_unit(row: dict) -> dict | None:
     details = ((row.get("plan") or {}).get("details") or {})
     search = details.get("search") or {}
     chosen = search.get("chosen")
+    if chosen != details.get("chosen"):  # the baseline's path came back: phi never read it
+        return None
     verdict = (search.get("verdicts") or {}).get(chosen) if chosen else None
     if not robust or verdict is None or outcome.get("kind") not in KINDS:
         return None
@@ -89,7 +92,7 @@ def skip_reason(row: dict) -> str:
     if details.get("chosen") in details.get("clear", ()):
         return f"clear start, judged {kind}"
     if details.get("chosen") == "baseline":
-        return f"baseline's path, judged {kind}"
+        return f"the baseline's path as the fallback, judged {kind}"
     return f"other, judged {kind}"
 
 

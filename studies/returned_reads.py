@@ -19,8 +19,8 @@ and phi's verdict on the returned path (the search's record, ``details.search.ve
 ``--trace K`` rolls out again the K tipping misreads the judge is surest of (lowest robust
 P(success)) and prints, for each box the judge's nominal replay disturbed, its tilt (rad) and
 displacement (m) at the end: in Bullet (stored); in the judge in phi's nominal member
-(`phi_judge.judged_rollouts`, the defaults' phi, its pruned world: "not kept" is a box left
-at rest); and in phi with every box dynamic (`testing.fidelity.phi_final`, the judge in phi's
+(`phi_judge.judged_rollouts`, the defaults' phi, its pruned world: a box it did not keep
+stays at rest); and in phi with every box dynamic (`testing.fidelity.phi_final`, the judge in phi's
 engine, the hold as settling) with the planner's capsule arm and with the judge's mesh arm
 (a diagnosis only: no planner plans with the mesh arm).
 
@@ -39,8 +39,6 @@ import sys
 from collections import Counter
 
 import numpy as np
-from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RotationMatrix
 
 from drake_clutter.experiments.paired import wilson_interval
 from drake_clutter.experiments.store import Store
@@ -175,7 +173,8 @@ def trace(read: dict) -> None:
     from drake_clutter.common.config import load_config
     from drake_clutter.experiments.specs import stored_scene
     from drake_clutter.phi.state import scene_box_states
-    from drake_clutter.planners.phi_judge import judged_rollouts
+    from drake_clutter.planners.context import PlanningContext
+    from drake_clutter.planners.phi_judge import box_fates, judged_rollouts
     from drake_clutter.scene.grading import tilt_angle
     from drake_clutter.testing.fidelity import phi_final
     from drake_clutter.trajectory import Trajectory
@@ -184,31 +183,27 @@ def trace(read: dict) -> None:
     scene = stored_scene(read["scene"], config)
     path = Trajectory.from_data(read["trajectory"])
     knot_time = float(np.diff(path.times[:2])[0])
-    rolled = judged_rollouts(scene, {"path": path.q}, config, knot_time)
-    final = rolled["path"].final_boxes or {}
-    rest = {name: state[4:7] for name, state in scene_box_states(scene).items()}
+    final = judged_rollouts(scene, {"path": path.q}, config, knot_time)["path"].final_boxes
+    p, R, _, _ = box_fates(scene, PlanningContext(scene, config).arm(), final or {},
+                           config.evaluation)
+    judged = {"judge in phi": (tilt_angle(R), p)}
     dyn = load_config(None, [f"dynamics.engine={config.phi_judge.engine}"])
     hold = config.phi_judge.hold_knots * knot_time
-    arms = {arm: phi_final(scene, path, dyn, hold, arm) for arm in ("capsules", "evaluation")}
+    for arm in ("capsules", "evaluation"):
+        f = phi_final(scene, path, dyn, hold, arm)
+        judged[f"{arm} arm, every box dynamic"] = (f.tilts, f.positions)
+    rest = np.array([state[4:7] for state in scene_box_states(scene).values()])
     names = [b.name for b in scene.boxes]
     print(f"  {read['config']} {read['scene']} angle {read['angle']} {read['chosen']} "
-          f"(robust P(success) {read['judge_p']:.3f}); tilt rad / moved m")
+          f"(robust P(success) {read['judge_p']:.3f}; phi's rollout "
+          f"{'failed' if final is None else 'finished'}); tilt rad / moved m")
     for box in read["boxes"]:
         if not (box.get("tipped") or box.get("fallen")):
             continue
-        name, i = box["name"], names.index(box["name"])
-        if name in final:
-            q = np.asarray(final[name][:4], float)
-            R = RotationMatrix(Quaternion(q / np.linalg.norm(q))).matrix()
-            judged = (f"{float(tilt_angle(R)):.2f} / "
-                      f"{float(np.linalg.norm(final[name][4:7] - rest[name])):.3f}")
-        else:
-            judged = "not kept"
-        dynamic = "; ".join(
-            f"{arm} arm {f.tilts[i]:.2f} / {float(np.linalg.norm(f.positions[i] - rest[name])):.3f}"
-            for arm, f in arms.items())
-        print(f"    {name}: Bullet {box['tilt']:.2f} / {box['displacement']:.3f}; judge in phi "
-              f"{judged}; every box dynamic: {dynamic}")
+        i = names.index(box["name"])
+        phi = "; ".join(f"{label} {tilts[i]:.2f} / {np.linalg.norm(ps[i] - rest[i]):.3f}"
+                        for label, (tilts, ps) in judged.items())
+        print(f"    {box['name']}: Bullet {box['tilt']:.2f} / {box['displacement']:.3f}; {phi}")
 
 
 def main(argv=None) -> int:

@@ -57,7 +57,8 @@ def source_of(chosen: str) -> str:
 
 def read_unit(row: dict) -> dict | None:
     """One push unit's returned path: phi's member classes and P(success), the judge's
-    nominal class, robust classes and P(success), the boxes the nominal replay disturbed;
+    nominal class, robust classes and P(success), the boxes the nominal replay disturbed (their
+stored records);
     None when the unit has no plan, no robust replay or no phi verdict on its path."""
     outcome = row.get("outcome") or {}
     robust = outcome.get("robust")
@@ -69,14 +70,13 @@ def read_unit(row: dict) -> dict | None:
     verdict = (search.get("verdicts") or {}).get(chosen) if chosen else None
     if not robust or verdict is None or outcome.get("kind") not in KINDS:
         return None
-    disturbed = [b["name"] for b in outcome.get("boxes", [])
-                 if b.get("tipped") or b.get("fallen")]
+    disturbed = [b for b in outcome.get("boxes", []) if b.get("tipped") or b.get("fallen")]
     return {"scene": row["scene"], "angle": row["angle"], "config": row["config_name"],
             "source": source_of(chosen), "chosen": chosen,
             "phi": verdict["kinds"], "phi_p": float(verdict["p_success"]),
             "judge": outcome["kind"], "judge_p": float(robust["p_success"]),
             "robust": robust["kinds"], "disturbed": disturbed,
-            "reason": outcome.get("reason", ""), "boxes": outcome.get("boxes", []),
+            "reason": outcome.get("reason", ""),
             "trajectory": (row.get("plan") or {}).get("trajectory")}
 
 
@@ -162,7 +162,8 @@ def print_tipping(reads: list[dict], examples: int) -> None:
           f"{sum(r['judge_p'] for r in misread) / max(len(misread), 1):.3f}")
     for r in misread[:examples]:
         print(f"  {r['config']} {r['scene']} angle {r['angle']} {r['chosen']}: judge "
-              f"{Counter(r['robust'])}, disturbed {r['disturbed']} ({r['reason']})")
+              f"{Counter(r['robust'])}, disturbed {[b['name'] for b in r['disturbed']]} "
+              f"({r['reason']})")
 
 
 def trace(read: dict) -> None:
@@ -197,9 +198,7 @@ def trace(read: dict) -> None:
     print(f"  {read['config']} {read['scene']} angle {read['angle']} {read['chosen']} "
           f"(robust P(success) {read['judge_p']:.3f}; phi's rollout "
           f"{'failed' if final is None else 'finished'}); tilt rad / moved m")
-    for box in read["boxes"]:
-        if not (box.get("tipped") or box.get("fallen")):
-            continue
+    for box in read["disturbed"]:
         i = names.index(box["name"])
         phi = "; ".join(f"{label} {tilts[i]:.2f} / {np.linalg.norm(ps[i] - rest[i]):.3f}"
                         for label, (tilts, ps) in judged.items())

@@ -428,6 +428,9 @@ class Config:
             ("evaluation.monitor_interval", period <= b.knot_time,
              f"such that the judge's control period sim_dt x monitor_interval ({period:g} s) "
              f"is at most baseline.knot_time ({b.knot_time:g} s)"),
+            ("phi_judge.time_step", d.mujoco_contact_time >= 2 * self.phi_judge.time_step,
+             f"at most half dynamics.mujoco_contact_time ({d.mujoco_contact_time:g} s): MuJoCo "
+             f"would raise a shorter contact time constant silently"),
             ("dynamics.derivative_method", autodiff_ok,
              f"'fd' with world.contact_approximation {self.world.contact_approximation!r} "
              f"(Drake's AutoDiffXd derivatives under Hunt-Crossley contact did not match "

@@ -42,6 +42,10 @@ class DynamicsConfig:
     mujoco_sample_steps: int = bounded(10, ge=1, le=1000)
     # armature of the MuJoCo phi's arm joints (contacts cannot move it), kg m^2 or kg; ours
     mujoco_arm_armature: float = bounded(1.0e6, gt=0.0)
+    # resting boxes sleep in the MuJoCo phi (MuJoCo's islands; the judge in phi sets it), flag; ours
+    mujoco_sleep: bool = False
+    # speed below which a MuJoCo tree counts as at rest and may sleep, m/s or rad/s; MuJoCo's
+    mujoco_sleep_tolerance: float = bounded(1e-3, gt=0.0, le=0.1)
     # finite-difference step of phi's Jacobians, state units (m, rad, m/s); Sec. V
     fd_step: float = bounded(1e-6, gt=0.0)
     # finite-difference scheme ("forward" or "central"), choice; Sec. V
@@ -274,6 +278,20 @@ class PhiJudgeConfig:
     threads: int = bounded(1, ge=1, le=64)
     # one knot's commanded approach into a blocked box read as a jam (phi.jam), m; ours
     jam_depth: float = bounded(0.001, gt=0.0)
+    # how a path is rolled out ("knot": phi(x, u) per knot; "kept": one MuJoCo world), choice; ours
+    stepping: Literal["knot", "kept"] = "knot"
+    # MuJoCo time step of the judge's phi (dynamics.mujoco_time_step for it), s; ours
+    time_step: float = bounded(0.002, ge=1e-4, le=0.01)
+    # resting boxes sleep in the judge's kept MuJoCo worlds (MuJoCo's islands), flag; ours
+    sleep: bool = False
+    # phi pruned to the boxes near the paths (false: all kept, resting ones asleep), flag; ours
+    prune: bool = True
+
+    def relations(self):
+        """(field, holds, what it must be) between this dataclass's fields."""
+        return [("sleep", not self.sleep or (self.stepping == "kept" and self.engine == "mujoco"),
+                 "false unless stepping is 'kept' and engine 'mujoco' (a world reset at every "
+                 "knot wakes every box)")]
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,10 @@ The same model as the Drake phi, in the paper's engine:
   (`mujoco_phi.MujocoPhi`), never for a step.
 
 Settings are MuJoCo's defaults (Euler, pyramidal cones, 2 ms, solref 0.02 1), the contact
-suite's reference setting. Frames and units: W, metres, kilograms, seconds.
+suite's reference setting. With ``mujoco_sleep`` a tree (a box) whose speed stays under
+``mujoco_sleep_tolerance`` for MuJoCo's ``mjMINAWAKE`` steps sleeps: it leaves the step (its
+contacts with the shelf and other sleepers are not solved) until an awake tree touches it or
+its state is written. Frames and units: W, metres, kilograms, seconds.
 """
 
 from __future__ import annotations
@@ -213,9 +216,11 @@ def model_xml(shelf: Shelf, boxes: Sequence[ModelBox], actor: Actor,
              f"pos=\"{_v(origin + np.array(centre))}\" size=\"{_v(np.array(size) / 2)}\" "
              f'contype="0" conaffinity="0"/>' for name, centre, size in shelf_boxes(shelf)]
     step = knot_time / substeps(knot_time, config)
+    sleep = '<flag sleep="enable"/>' if config.mujoco_sleep else ""
     return (f'<mujoco model="phi"><option timestep="{step!r}" gravity="0 0 -9.81" '
             f'tolerance="{config.mujoco_solver_tolerance!r}" '
-            f'ls_tolerance="{config.mujoco_line_search_tolerance!r}"/>'
+            f'ls_tolerance="{config.mujoco_line_search_tolerance!r}" '
+            f'sleep_tolerance="{config.mujoco_sleep_tolerance!r}">{sleep}</option>'
             f"<worldbody>{''.join(parts)}{actor.xml}"
             f"{''.join(_box_xml(b) for b in boxes)}"
             f"</worldbody><contact>{''.join(_pairs(shelf, boxes, actor, pair_mu, passes, config))}"

@@ -322,3 +322,87 @@ class MujocoPhi(PhiBase):
                                  commanded_point_velocity(m, d, v))
         for box, speed in speeds.items():
             jam[box] += max(speed, 0.0) * m.opt.timestep * steps
+
+    # -- one world kept through a path (the judge in phi's rollouts)
+
+    def keep_world(self, x: np.ndarray) -> np.ndarray:
+        """Settles x's boxes under the still arm for ``settle_time`` in one MuJoCo world (the
+        solver's warm start kept; with ``mujoco_sleep`` the boxes that come to rest sleep) and
+        keeps that world as the start of every `kept_knots` run; returns the settled state
+        (NaN where the settle failed)."""
+        self._load(x, robot_positions(x[:ARM_DIM]), np.zeros(len(self._arm_v)))
+        self._warnings = int(self.data.warning[_BAD_ACCELERATION].number)
+        knots = int(np.ceil(self.spec.config.settle_time / self.spec.knot_time - 1e-9))
+        hold = np.asarray(x[:ARM_DIM], dtype=float)
+        for _ in range(knots):
+            self._kept_knot(hold, hold, None, False)
+        self.kept = copy.copy(self.data)
+        x_settled = self._read(hold)
+        if self._kept_failed(x_settled):
+            x_settled[:] = np.nan
+        return x_settled
+
+    def kept_knots(self, knots: np.ndarray, trace: bool = False):
+        """Steps the kept world (`keep_world`) through the knots (k, 8) from the first, which
+        sets the arm, without resetting the world between knots; yields after each later knot
+        (jam per kept box over the knot (m, `phi.jam`), the interaction edges seen (empty
+        without ``trace``)), with ``kept_state`` then the state. A failed step (MuJoCo's
+        bad-acceleration warning, a non-finite or diverged box) yields NaN jams and ends."""
+        d = self.data
+        mujoco.mj_copyData(d, self.model, self.kept)
+        self._warnings = int(d.warning[_BAD_ACCELERATION].number)
+        d.qpos[self._arm_q] = robot_positions(knots[0])
+        d.qvel[self._arm_v] = 0.0
+        self.kept_state = self._read(knots[0])
+        edges = self._near_edges() if trace else set()
+        for a, b in zip(knots[:-1], knots[1:], strict=True):
+            jam = np.zeros(self.layout.num_boxes)
+            edges |= self._kept_knot(a, b, jam, trace)
+            self.kept_state = self._read(b)
+            if self._kept_failed(self.kept_state):
+                self.failures += 1
+                yield jam * np.nan, edges
+                return
+            yield jam, edges
+            edges = set()
+
+    def _kept_knot(self, a: np.ndarray, b: np.ndarray, jam: np.ndarray | None,
+                   trace: bool) -> set:
+        """One knot interval of the kept world, the arm on the straight joint-space line from
+        knot a to knot b (8,) as `_step` moves it; the jam added to ``jam``; the edges seen
+        (with ``trace``)."""
+        m, d, n = self.model, self.data, self.substeps
+        q_start, q_end = robot_positions(a), robot_positions(b)
+        v_arm = (q_end - q_start) / self.spec.knot_time
+        chunk = self.spec.config.mujoco_sample_steps
+        edges = set()
+        for k in range(0, n, chunk):
+            steps = min(chunk, n - k)
+            d.qpos[self._arm_q] = q_start + (q_end - q_start) * (k / n)
+            d.qvel[self._arm_v] = v_arm
+            mujoco.mj_step(m, d, steps)
+            if trace:
+                edges |= self._edges()
+            if jam is not None:
+                self._jam_approach(v_arm, jam, steps)
+            self._cap_kept_speeds()
+        d.qpos[self._arm_q] = q_end  # where the next knot starts it (and `_near_edges` reads)
+        if trace:
+            edges |= self._near_edges()
+        return edges
+
+    def _cap_kept_speeds(self) -> None:
+        """`dynamics.cap_box_speeds` on the kept world, writing only the boxes it slows (a
+        write to a sleeping box would wake it; a sleeping box is never capped)."""
+        d = self.data
+        capped = cap_box_speeds(d.qvel, self._cap_index, self.spec.config)
+        if capped is d.qvel:
+            return
+        rows = np.any(capped[self._cap_index] != d.qvel[self._cap_index], axis=1)
+        d.qvel[self._cap_index[rows]] = capped[self._cap_index[rows]]
+
+    def _kept_failed(self, x: np.ndarray) -> bool:
+        """Whether the kept world failed since it was loaded: MuJoCo's bad-acceleration
+        warning (it resets the data) or a state `_read` marked diverged."""
+        warned = int(self.data.warning[_BAD_ACCELERATION].number) > self._warnings
+        return warned or not np.all(np.isfinite(x))

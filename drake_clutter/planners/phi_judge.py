@@ -38,6 +38,7 @@ from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 
 from drake_clutter.common.config import Config, EvaluationConfig, PhiJudgeConfig
+from drake_clutter.common.physics_config import DynamicsConfig
 from drake_clutter.phi.dynamics import initial_state, make_spec
 from drake_clutter.phi.engines import build_phi
 from drake_clutter.phi.pruning import prune
@@ -349,9 +350,11 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
                     knot_time: float, stop: float | None = None,
                     deadline: float | None = None) -> dict[str, JudgedRollout]:
     """Each knot path (T + 1, 8) rolled out in one phi of ``world`` (a member's scene, capsule
-    arm, ``config``'s engine) and held at its last knot for ``phi_judge.hold_knots``
+    arm, `judge_dynamics`) and held at its last knot for ``phi_judge.hold_knots``
     knots, its jam measured at every knot; one phi for all paths, pruned to them
-    (`pruning.prune`), its boxes settled once under the first path's start. A path whose
+    (`pruning.prune`; every box kept without ``phi_judge.prune``), its boxes settled once
+    under the first path's start (with ``phi_judge.stepping`` "kept" in one MuJoCo world that
+    every path starts from as it was settled, `MujocoPhi.keep_world`). A path whose
     rollout reaches a frozen box is rolled out again in a phi with those boxes kept, up to
     ``dynamics.prune_rounds`` times. ``stop`` (m): a rollout ends once its jam reaches it.
     A path phi cannot settle or step reads failed (final_boxes None, jam None). Once the
@@ -359,10 +362,14 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
     not yet rolled out read `UNFINISHED`."""
     if past(deadline):
         return dict.fromkeys(paths, UNFINISHED)
-    dyn = replace(config.dynamics, engine=config.phi_judge.engine)
+    dyn = judge_dynamics(config)
     states = scene_box_states(world)
     first, *others = (np.asarray(q, float) for q in paths.values())
-    kept = set(prune(world, first, states, dyn, config.world, "capsules", tuple(others)).kept)
+    if config.phi_judge.prune:
+        kept = set(prune(world, first, states, dyn, config.world, "capsules",
+                         tuple(others)).kept)
+    else:
+        kept = {b.name for b in world.boxes}
     out: dict[str, JudgedRollout] = {}
     todo = dict(paths)
     for round_ in range(dyn.prune_rounds + 1):
@@ -371,11 +378,15 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
         spec = make_spec(world, [b.name for b in world.boxes if b.name in kept], states,
                          knot_time, dyn, config.world, "capsules")
         phi = build_phi(spec)
+        in_one = config.phi_judge.stepping == "kept" and hasattr(phi, "keep_world")
         try:
-            x0 = phi.settle(initial_state(spec.layout, first[0], states))
+            start = initial_state(spec.layout, first[0], states)
+            x0 = phi.keep_world(start) if in_one else phi.settle(start)
         except (RuntimeError, ValueError):  # Drake's solver errors while settling
             return {**out, **dict.fromkeys(todo, JudgedRollout(None, None))}
-        out.update(_rollouts(phi, x0, todo, config.phi_judge, stop, deadline))
+        if not np.all(np.isfinite(x0)):  # the settle failed: nothing can be rolled out
+            return {**out, **dict.fromkeys(todo, JudgedRollout(None, None))}
+        out.update(_rollouts(phi, x0, todo, config.phi_judge, stop, deadline, in_one))
         touched = set().union(*(out[name].touched for name in todo))
         if not touched or round_ == dyn.prune_rounds:
             break
@@ -384,15 +395,30 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
     return {name: out[name] for name in paths}
 
 
+def judge_dynamics(config: Config) -> DynamicsConfig:
+    """phi's settings in the judge in phi: ``dynamics`` in ``phi_judge.engine`` at
+    ``phi_judge.time_step``, its boxes sleeping where ``phi_judge.sleep``."""
+    judge = config.phi_judge
+    return replace(config.dynamics, engine=judge.engine, mujoco_time_step=judge.time_step,
+                   mujoco_sleep=judge.sleep)
+
+
 def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], phi_judge: PhiJudgeConfig,
-              stop: float | None, deadline: float | None = None) -> dict[str, JudgedRollout]:
-    """`_judged_rollout` of every path, in ``phi_judge.threads`` threads where phi can be
-    cloned (MuJoCo), each thread stepping its own clone: the same rollouts as in turn."""
+              stop: float | None, deadline: float | None = None,
+              kept: bool = False) -> dict[str, JudgedRollout]:
+    """`_judged_rollout` (``kept``: `_kept_rollout`, phi's kept world) of every path, in
+    ``phi_judge.threads`` threads where phi can be cloned (MuJoCo), each thread stepping its
+    own clone: the same rollouts as in turn."""
     hold = phi_judge.hold_knots
     threads = min(phi_judge.threads, len(paths))
+    if kept:
+        def one(twin, q):
+            return _kept_rollout(twin, np.asarray(q, float), hold, stop, deadline)
+    else:
+        def one(twin, q):
+            return _judged_rollout(twin, x0, np.asarray(q, float), hold, stop, deadline)
     if threads <= 1 or not hasattr(phi, "clone"):
-        return {name: _judged_rollout(phi, x0, np.asarray(q, float), hold, stop, deadline)
-                for name, q in paths.items()}
+        return {name: one(phi, q) for name, q in paths.items()}
     idle = queue.SimpleQueue()
     for twin in [phi, *(phi.clone() for _ in range(threads - 1))]:
         idle.put(twin)
@@ -400,7 +426,7 @@ def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], phi_judge: PhiJ
     def roll(q: np.ndarray) -> JudgedRollout:
         twin = idle.get()
         try:
-            return _judged_rollout(twin, x0, np.asarray(q, float), hold, stop, deadline)
+            return one(twin, q)
         finally:
             idle.put(twin)
 
@@ -435,6 +461,34 @@ def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
             return JudgedRollout(None, worst, True, frozenset(touched))
     return JudgedRollout(dict(zip(layout.box_names, layout.boxes(x).copy(), strict=True)),
                          worst, touched=frozenset(touched))
+
+
+def _kept_rollout(phi, q: np.ndarray, hold_knots: int, stop: float | None,
+                  deadline: float | None = None) -> JudgedRollout:
+    """`_judged_rollout` in phi's kept world (`MujocoPhi.kept_knots`: the world settled once,
+    never reset between knots)."""
+    touched = set()
+    worst = 0.0
+    run = phi.kept_knots(np.array([*q, *([q[-1]] * hold_knots)]), trace=bool(phi.spec.frozen))
+    try:
+        while True:
+            if past(deadline):
+                return UNFINISHED
+            try:
+                jam, edges = next(run)
+            except StopIteration:
+                break
+            touched |= phi.frozen_touched(edges)
+            if not np.all(np.isfinite(jam)):
+                return JudgedRollout(None, None, touched=frozenset(touched))
+            worst = max(worst, float(jam.max(initial=0.0)))
+            if stop is not None and worst >= stop:
+                return JudgedRollout(None, worst, True, frozenset(touched))
+    finally:
+        run.close()
+    boxes = phi.layout.boxes(phi.kept_state).copy()
+    return JudgedRollout(dict(zip(phi.layout.box_names, boxes, strict=True)), worst,
+                         touched=frozenset(touched))
 
 
 def judge_paths(scene: Scene, paths: dict[str, np.ndarray], times: np.ndarray, config: Config,

@@ -2,7 +2,7 @@
 
     python benchmarks/bench_contact.py [--grid FILE] [--families single,chain,...]
         [--engines phi,bullet,mujoco_default,mujoco_stiff] [--set FIELD=VALUE ...]
-        [--config FILE] [--json FILE] [--cases FILE]
+        [--config FILE] [--json FILE] [--cases FILE] [--judge]
 
 Engine-neutral scripted scenarios (`drake_clutter.conformance.scenarios`: single pushes,
 chains, edges, squeezes, a topple, drags) run in phi's own Drake world (under the configuration
@@ -14,7 +14,8 @@ the boxes' classes with MuJoCo per family and engine, the single pushes against 
 jam measure reads as jams (`phi.jam`, ``phi_judge.jam_depth``), squeeze forces and phi's jam
 measure of each squeeze, realised drag friction and rise, and seconds per case. ``--json``
 writes the summary, ``--cases`` one row per case (JSON). ``--grid`` replaces the single-push
-grid (YAML, schema in docs/phi.md). Bad input (a grid, a configuration, a friction pair an
+grid (YAML, schema in docs/phi.md). ``--judge`` runs phi as the judge in phi does
+(`phi_judge.judge_dynamics`: its engine, time step, readings and sleeping boxes). Bad input (a grid, a configuration, a friction pair an
 engine cannot realise, MuJoCo missing) is one line on stderr, exit status 2, nothing written.
 """
 
@@ -23,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 from tqdm import tqdm
@@ -44,6 +46,7 @@ from drake_clutter.conformance.suite import (
     run_cases,
     summarise,
 )
+from drake_clutter.planners.phi_judge import judge_dynamics
 
 
 def _names(text: str, known: tuple[str, ...], what: str) -> tuple[str, ...]:
@@ -131,12 +134,17 @@ def main(argv=None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE")
     parser.add_argument("--json", type=Path, help="write the summary here")
     parser.add_argument("--cases", type=Path, help="write one row per case here (JSON)")
+    parser.add_argument("--judge", action="store_true",
+                        help="phi as the judge in phi runs it (phi_judge's engine, time step, "
+                        "readings and sleep: planners.phi_judge.judge_dynamics)")
     args = parser.parse_args(argv)
     try:
         config, scenarios, engines = _check_inputs(args)
     except (InputError, MissingMujoco) as error:
         print(f"bench_contact: {error}", file=sys.stderr)
         return EXIT_USAGE
+    if args.judge:
+        config = replace(config, dynamics=judge_dynamics(config))
     if REFERENCE not in engines:
         print(f"(no {REFERENCE}: agreement columns are left out)")
     with tqdm(total=len(scenarios), desc="cases", file=sys.stderr) as bar:

@@ -143,6 +143,12 @@ def main(argv=None) -> None:
     parser.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
                         help="overrides for this checkout's side only, e.g. "
                         "phi_judge.threads=2")
+    parser.add_argument("--variant", action="append", default=[], metavar="'FIELD=VALUE ...'",
+                        help="a side of this checkout with these overrides (repeatable: each "
+                        "variant judged in the same run against the same reference; "
+                        "replaces --set)")
+    parser.add_argument("--show", type=int, default=20,
+                        help="differing readings printed per variant (default: %(default)s)")
     parser.add_argument("--judge-only", metavar="PATHS", help=argparse.SUPPRESS)
     parser.add_argument("--out", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -164,38 +170,43 @@ def main(argv=None) -> None:
         reference = Path(tmp) / "reference"
         subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q",
                         str(reference), args.reference], check=True)
+        variants = [v.split() for v in args.variant] or [args.set]
         try:
-            runs = {"reference": [], "now": []}
+            runs = {"reference": [], **{i: [] for i in range(len(variants))}}
             for _ in range(args.repeats):
                 runs["reference"].append(run_side(reference, paths_file, args.members, []))
-                runs["now"].append(run_side(ROOT, paths_file, args.members, args.set))
+                for i, settings in enumerate(variants):
+                    runs[i].append(run_side(ROOT, paths_file, args.members, settings))
         finally:
             subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
                             str(reference)], check=False)
-    report(saved, runs, args)
+    report(saved, runs, args, variants)
 
 
-def report(saved: dict, runs: dict, args) -> None:
-    """Prints the table and the differing readings."""
+def report(saved: dict, runs: dict, args, variants: list[list[str]]) -> None:
+    """Prints, per variant of this checkout, the table and the differing readings."""
     best = {side: {item: min(r[item]["seconds"] for r in rs) for item in saved}
             for side, rs in runs.items()}
-    print(f"K = {args.members}, reference {args.reference}, best of {args.repeats}, "
-          f"now with {' '.join(args.set) or 'the defaults'}")
-    print(f"{'initialization':>22} {'paths':>5} {'reference s':>11} {'now s':>7} {'ratio':>6}")
-    n = 0
-    for item, (_, paths, _) in saved.items():
-        n += len(paths)
-        r, s = best["reference"][item], best["now"][item]
-        print(f"{item:>22} {len(paths):5d} {r:11.1f} {s:7.1f} {r / s:6.2f}")
-    r, s = sum(best["reference"].values()), sum(best["now"].values())
-    print(f"{'total':>22} {n:5d} {r:11.1f} {s:7.1f} {r / s:6.2f}")
-    print(f"paths judged per second: reference {n / r:.2f}, now {n / s:.2f}")
-    lines = differences(runs["now"][0], runs["reference"][0])
+    n = sum(len(paths) for _, paths, _ in saved.values())
     readings = n * args.members
-    print(f"member readings that differ: {len(lines)} of {readings}; jam measures that differ: "
-          f"{jams_differing(runs['now'][0], runs['reference'][0])} of {readings}")
-    for line in lines:
-        print("  " + line)
+    r_total = sum(best["reference"].values())
+    print(f"K = {args.members}, reference {args.reference}, best of {args.repeats}; "
+          f"reference {r_total:.1f} s, {n / r_total:.2f} paths per second")
+    for i, settings in enumerate(variants):
+        print(f"\nnow with {' '.join(settings) or 'the defaults'}")
+        print(f"{'initialization':>22} {'paths':>5} {'reference s':>11} {'now s':>7} "
+              f"{'ratio':>6}")
+        for item, (_, paths, _) in saved.items():
+            r, s = best["reference"][item], best[i][item]
+            print(f"{item:>22} {len(paths):5d} {r:11.1f} {s:7.1f} {r / s:6.2f}")
+        s = sum(best[i].values())
+        print(f"{'total':>22} {n:5d} {r_total:11.1f} {s:7.1f} {r_total / s:6.2f}")
+        print(f"paths judged per second: reference {n / r_total:.2f}, now {n / s:.2f}")
+        lines = differences(runs[i][0], runs["reference"][0])
+        print(f"member readings that differ: {len(lines)} of {readings}; jam measures that "
+              f"differ: {jams_differing(runs[i][0], runs['reference'][0])} of {readings}")
+        for line in lines[:args.show]:
+            print("  " + line)
 
 
 if __name__ == "__main__":

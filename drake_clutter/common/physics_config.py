@@ -279,13 +279,15 @@ class PhiJudgeConfig:
     # one knot's commanded approach into a blocked box read as a jam (phi.jam), m; ours
     jam_depth: float = bounded(0.001, gt=0.0)
     # how a path is rolled out ("knot": phi(x, u) per knot; "kept": one MuJoCo world), choice; ours
-    stepping: Literal["knot", "kept"] = "knot"
+    stepping: Literal["knot", "kept"] = "kept"
     # MuJoCo time step of the judge's phi (dynamics.mujoco_time_step for it), s; ours
-    time_step: float = bounded(0.002, ge=1e-4, le=0.01)
+    time_step: float = bounded(0.004, ge=1e-4, le=0.01)
+    # MuJoCo steps between the judge's phi readings (its mujoco_sample_steps), count; ours
+    sample_steps: int = bounded(5, ge=1, le=1000)
     # resting boxes sleep in the judge's kept MuJoCo worlds (MuJoCo's islands), flag; ours
-    sleep: bool = False
+    sleep: bool = True
     # phi pruned to the boxes near the paths (false: all kept, resting ones asleep), flag; ours
-    prune: bool = True
+    prune: bool = False
 
     def relations(self):
         """(field, holds, what it must be) between this dataclass's fields."""

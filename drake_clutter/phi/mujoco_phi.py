@@ -53,6 +53,9 @@ from drake_clutter.trajectory import robot_positions
 
 STATIC = -(10 ** 9)  # node of the shelf's geometry (no interaction node)
 _BAD_ACCELERATION = int(mujoco.mjtWarning.mjWARN_BADQACC)
+# MuJoCo's warnings after which it resets the data (a bad position, speed or acceleration)
+_RESETS = [int(mujoco.mjtWarning.mjWARN_BADQPOS), int(mujoco.mjtWarning.mjWARN_BADQVEL),
+           _BAD_ACCELERATION]
 
 
 def rotation_matrices(quat_wxyz: np.ndarray) -> np.ndarray:
@@ -105,19 +108,20 @@ def jam_contacts(model, data, nodes: np.ndarray) -> list[Contact]:
     reached = _pushed_boxes(pairs)
     if not reached:
         return []  # the arm pushes no kept box: no box can be blocked under it
+    hit = np.isin(pairs, np.fromiter(reached, dtype=pairs.dtype, count=len(reached)))
+    rows = (pairs[:, 0] != pairs[:, 1]) & (hit[:, 0] | hit[:, 1])
+    i = acting[rows]
+    contact = data.contact  # read in bulk: each attribute access builds a view
+    geoms, normals = contact.geom[i].tolist(), contact.frame[i, :3]  # from geom1 into geom2
+    points, mus = contact.pos[i], contact.friction[i, 0].tolist()
     out = []
-    for i, (m1, m2) in zip(acting, pairs.tolist(), strict=True):
-        if m1 == m2 or (m1 not in reached and m2 not in reached):
-            continue
-        g1, g2 = (int(g) for g in data.contact.geom[i])
+    for k, ((m1, m2), (g1, g2), (hit1, hit2)) in enumerate(
+            zip(pairs[rows].tolist(), geoms, hit[rows].tolist(), strict=True)):
         n1, n2 = _jam_node(m1), _jam_node(m2)
-        normal = data.contact.frame[i, :3].copy()  # from geom1 into geom2
-        point = data.contact.pos[i].copy()
-        mu = float(data.contact.friction[i, 0])
-        if m2 in reached:
-            out.append(Contact(n2, n1, normal, point, mu, g1))
-        if m1 in reached:
-            out.append(Contact(n1, n2, -normal, point, mu, g2))
+        if hit2:
+            out.append(Contact(n2, n1, normals[k].copy(), points[k].copy(), mus[k], g1))
+        if hit1:
+            out.append(Contact(n1, n2, -normals[k], points[k].copy(), mus[k], g2))
     return out
 
 
@@ -136,6 +140,28 @@ def _pushed_boxes(pairs: np.ndarray) -> set[int]:
             links.setdefault(a, set()).add(b)
             links.setdefault(b, set()).add(a)
     return reach(reached, links)
+
+
+def approaches_a_box(model, data, nodes: np.ndarray, v_commanded: np.ndarray) -> bool:
+    """Whether the arm, at the generalized velocity ``v_commanded``, moves into a kept box at
+    one of the data's contacts (its material point's W velocity along the contact normal from
+    the arm into the box above 0): without one, `jam.approach_speeds` reads nothing, and
+    `jam_contacts` need not be built. ``nodes`` maps geometry ids to interaction nodes."""
+    n = data.ncon
+    if n == 0 or not np.any(v_commanded):
+        return False
+    pair = nodes[data.contact.geom[:n]]
+    first = (pair[:, 0] == ARM_NODE) & (pair[:, 1] > ARM_NODE)
+    second = (pair[:, 1] == ARM_NODE) & (pair[:, 0] > ARM_NODE)
+    jacobian = np.zeros((3, model.nv))
+    for i in np.flatnonzero(first | second):
+        arm_geom = data.contact.geom[i, 0 if first[i] else 1]
+        push = data.contact.frame[i, :3] * (1.0 if first[i] else -1.0)  # arm into box
+        mujoco.mj_jac(model, data, jacobian, None, data.contact.pos[i],
+                      int(model.geom_bodyid[arm_geom]))
+        if float((jacobian @ v_commanded) @ push) > 0.0:
+            return True
+    return False
 
 
 def commanded_point_velocity(model, data, v_commanded: np.ndarray):
@@ -318,6 +344,8 @@ class MujocoPhi(PhiBase):
         m, d = self.model, self.data
         v = np.zeros(m.nv)
         v[self._arm_v] = v_arm
+        if not approaches_a_box(m, d, self._nodes, v):
+            return  # no contact the jam could read: it adds only positive approach speeds
         speeds = approach_speeds(jam_contacts(m, d, self._nodes),
                                  commanded_point_velocity(m, d, v))
         for box, speed in speeds.items():
@@ -331,7 +359,7 @@ class MujocoPhi(PhiBase):
         keeps that world as the start of every `kept_knots` run; returns the settled state
         (NaN where the settle failed)."""
         self._load(x, robot_positions(x[:ARM_DIM]), np.zeros(len(self._arm_v)))
-        self._warnings = int(self.data.warning[_BAD_ACCELERATION].number)
+        self._warnings = self._reset_warnings()
         knots = int(np.ceil(self.spec.config.settle_time / self.spec.knot_time - 1e-9))
         hold = np.asarray(x[:ARM_DIM], dtype=float)
         for _ in range(knots):
@@ -350,7 +378,7 @@ class MujocoPhi(PhiBase):
         bad-acceleration warning, a non-finite or diverged box) yields NaN jams and ends."""
         d = self.data
         mujoco.mj_copyData(d, self.model, self.kept)
-        self._warnings = int(d.warning[_BAD_ACCELERATION].number)
+        self._warnings = self._reset_warnings()
         d.qpos[self._arm_q] = robot_positions(knots[0])
         d.qvel[self._arm_v] = 0.0
         self.kept_state = self._read(knots[0])
@@ -401,8 +429,12 @@ class MujocoPhi(PhiBase):
         rows = np.any(capped[self._cap_index] != d.qvel[self._cap_index], axis=1)
         d.qvel[self._cap_index[rows]] = capped[self._cap_index[rows]]
 
+    def _reset_warnings(self) -> int:
+        """How often MuJoCo has warned of a bad position, speed or acceleration in the data
+        (each time it reset the data)."""
+        return sum(int(self.data.warning[w].number) for w in _RESETS)
+
     def _kept_failed(self, x: np.ndarray) -> bool:
-        """Whether the kept world failed since it was loaded: MuJoCo's bad-acceleration
-        warning (it resets the data) or a state `_read` marked diverged."""
-        warned = int(self.data.warning[_BAD_ACCELERATION].number) > self._warnings
-        return warned or not np.all(np.isfinite(x))
+        """Whether the kept world failed since it was loaded: a MuJoCo warning after which it
+        reset the data (`_RESETS`), or a state `_read` marked diverged."""
+        return self._reset_warnings() > self._warnings or not np.all(np.isfinite(x))

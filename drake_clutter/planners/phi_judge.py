@@ -397,10 +397,11 @@ def judged_rollouts(world: Scene, paths: dict[str, np.ndarray], config: Config,
 
 def judge_dynamics(config: Config) -> DynamicsConfig:
     """phi's settings in the judge in phi: ``dynamics`` in ``phi_judge.engine`` at
-    ``phi_judge.time_step``, its boxes sleeping where ``phi_judge.sleep``."""
+    ``phi_judge.time_step``, read every ``phi_judge.sample_steps`` steps, its boxes sleeping
+    where ``phi_judge.sleep``."""
     judge = config.phi_judge
     return replace(config.dynamics, engine=judge.engine, mujoco_time_step=judge.time_step,
-                   mujoco_sleep=judge.sleep)
+                   mujoco_sample_steps=judge.sample_steps, mujoco_sleep=judge.sleep)
 
 
 def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], phi_judge: PhiJudgeConfig,

@@ -4,6 +4,7 @@ differences against central ones, and the bad input the engine brings."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import os
 import subprocess
@@ -185,14 +186,79 @@ def test_worker_processes_give_the_serial_bits(pushed, reach10):
 # ----------------------------------------------------------------------------- bad input
 
 
+# ----------------------------------------------------------------------------- the kept world
+
+
+@pytest.fixture(scope="module")
+def kept(scene10, reach10):
+    """The straight reach of bookshelf 10 / seed 1 in a kept MuJoCo world, every box of the
+    scene dynamic (no pruning) and the resting ones asleep, at 4 ms steps read every 20 ms."""
+    config = dataclasses.replace(MUJOCO, mujoco_sleep=True, mujoco_time_step=0.004,
+                                 mujoco_sample_steps=5)
+    states = scene_box_states(scene10)
+    spec = make_spec(scene10, [b.name for b in scene10.boxes], states, 0.2, config)
+    phi = build_phi(spec)
+    x0 = phi.keep_world(initial_state(spec.layout, reach10[0], states))
+    return spec, phi, x0
+
+
+def test_resting_boxes_sleep_in_the_kept_world_and_the_reach_wakes_and_moves_them(kept,
+                                                                                  reach10):
+    spec, phi, x0 = kept
+    assert np.all(np.isfinite(x0))
+    mujoco.mj_copyData(phi.data, phi.model, phi.kept)
+    assert phi.data.ntree_awake <= 1  # after the settle at most the arm is awake
+    runs = list(phi.kept_knots(reach10))
+    assert len(runs) == len(reach10) - 1
+    assert all(np.all(np.isfinite(jam)) for jam, _ in runs)
+    moved = np.linalg.norm(spec.layout.boxes(phi.kept_state)[:, 4:7]
+                           - spec.layout.boxes(x0)[:, 4:7], axis=1)
+    assert moved.max() > 0.02  # the reach pushes boxes, as in the functional phi
+    assert np.sum(moved > 1e-4) < len(moved)  # and the boxes it never meets stay put
+    np.testing.assert_array_equal(phi.kept_state[:ARM_DIM], reach10[-1])
+
+
+def test_the_kept_world_starts_every_run_from_its_settle_and_repeats_its_bits(kept, reach10):
+    spec, phi, _ = kept
+    first = [jam for jam, _ in phi.kept_knots(reach10)]
+    end = phi.kept_state.copy()
+    list(phi.kept_knots(reach10[:5]))  # something else in between
+    again = [jam for jam, _ in phi.kept_knots(reach10)]
+    assert np.array_equal(np.array(first), np.array(again))
+    assert np.array_equal(end, phi.kept_state)
+
+
+def test_a_mujoco_reset_in_the_kept_world_is_a_recorded_failure(kept, reach10):
+    """A bad speed makes MuJoCo warn and reset the data: the run yields NaN jams and ends,
+    counted in ``failures``, never a silent success from the reset world."""
+    spec, phi, _ = kept
+    before = phi.failures
+    saved = phi.kept
+    phi.kept = copy.copy(saved)
+    phi.kept.qvel[phi._box_v[0, 0]] = np.nan
+    try:
+        runs = list(phi.kept_knots(reach10))
+    finally:
+        phi.kept = saved
+    assert len(runs) == 1 and np.all(np.isnan(runs[0][0]))
+    assert phi.failures == before + 1
+
+
 @pytest.mark.parametrize("override, field", [
     ("dynamics.engine=bullet", "dynamics.engine"),
     ("dynamics.mujoco_contact_time=0.003", "dynamics.mujoco_contact_time"),
     ("dynamics.derivative_method=autodiff", "dynamics.derivative_method"),
+    ("dynamics.mujoco_sleep_tolerance=0", "dynamics.mujoco_sleep_tolerance"),
+    ("phi_judge.time_step=0.02", "phi_judge.time_step"),
+    ("phi_judge.time_step=0.008 --set dynamics.mujoco_contact_time=0.015", "phi_judge.time_step"),
+    ("phi_judge.sample_steps=0", "phi_judge.sample_steps"),
+    ("phi_judge.stepping=fast", "phi_judge.stepping"),
+    ("phi_judge.sleep=maybe", "phi_judge.sleep"),
+    ("phi_judge.sleep=true --set phi_judge.stepping=knot", "phi_judge.sleep"),
 ])
 def test_bad_engine_settings_name_the_field(override, field):
     with pytest.raises(ConfigError, match=field.replace(".", r"\.")):
-        load_config(None, ["dynamics.engine=mujoco", override])
+        load_config(None, ["dynamics.engine=mujoco", *override.split(" --set ")])
 
 
 def test_a_scene_mujoco_cannot_express_names_its_file_and_field(scene10):

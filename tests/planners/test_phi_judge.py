@@ -315,3 +315,30 @@ def test_threads_roll_out_the_same_verdicts_as_in_turn(scene, baseline_path):
         found.append({k: v.to_data() for k, v in verdicts.items()})
     assert found[0] == found[1]
     assert found[0]["pressing"]["kinds"] == ["kinematic_failure"] * 2
+
+
+@pytest.mark.parametrize("stepping", [
+    ["phi_judge.stepping=knot", "phi_judge.time_step=0.002", "phi_judge.sample_steps=10"],
+    ["phi_judge.stepping=kept", "phi_judge.sleep=false", "phi_judge.prune=true"],
+    ["phi_judge.stepping=kept", "phi_judge.sleep=true", "phi_judge.prune=false",
+     "phi_judge.time_step=0.004", "phi_judge.sample_steps=5"],
+])
+def test_every_stepping_reads_the_plans_and_repeats_its_verdicts(scene, baseline_path, stepping):
+    """The judge's phi knot by knot, in a kept world, and in a kept world of sleeping boxes
+    at a longer step: the pressing path jams in every member, the path kept outside the shelf
+    fails to grasp, and the same settings give the same findings again, in one thread or
+    two."""
+    pressing = _pressing_path()
+    paths = {"pressing": pressing, "outside": np.repeat(pressing[:1], len(pressing), axis=0),
+             "baseline": baseline_path}
+    found = []
+    for threads in (1, 1, 2):
+        config = load_config(None, ["dynamics.workers=0", "phi_judge.members=2",
+                                    f"phi_judge.threads={threads}", *stepping])
+        times = np.arange(len(pressing)) * config.baseline.knot_time
+        verdicts = judge_paths(scene, paths, times, config, ArmGeometry(scene, "capsules"),
+                               complete=False)
+        found.append({k: v.to_data() for k, v in verdicts.items()})
+    assert found[0] == found[1] == found[2]
+    assert found[0]["pressing"]["kinds"] == ["kinematic_failure"] * 2
+    assert found[0]["outside"]["kinds"] == ["failure_to_grasp"] * 2

@@ -15,8 +15,9 @@ jam measure reads as jams (`phi.jam`, ``phi_judge.jam_depth``), squeeze forces a
 measure of each squeeze, realised drag friction and rise, and seconds per case. ``--json``
 writes the summary, ``--cases`` one row per case (JSON). ``--grid`` replaces the single-push
 grid (YAML, schema in docs/phi.md). ``--judge`` runs phi as the judge in phi does
-(`phi_judge.judge_dynamics`: its engine, time step, readings and sleeping boxes). Bad input (a grid, a configuration, a friction pair an
-engine cannot realise, MuJoCo missing) is one line on stderr, exit status 2, nothing written.
+(`phi_judge.judge_dynamics`: its engine, time step, readings and sleeping boxes). Bad input
+(a grid, a configuration, a friction pair an engine cannot realise, MuJoCo missing) is one
+line on stderr, exit status 2, nothing written.
 """
 
 from __future__ import annotations

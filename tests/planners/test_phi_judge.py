@@ -318,7 +318,8 @@ def test_threads_roll_out_the_same_verdicts_as_in_turn(scene, baseline_path):
 
 
 @pytest.mark.parametrize("stepping", [
-    ["phi_judge.stepping=knot", "phi_judge.time_step=0.002", "phi_judge.sample_steps=10"],
+    ["phi_judge.stepping=knot", "phi_judge.sleep=false", "phi_judge.time_step=0.002",
+     "phi_judge.sample_steps=10"],
     ["phi_judge.stepping=kept", "phi_judge.sleep=false", "phi_judge.prune=true"],
     ["phi_judge.stepping=kept", "phi_judge.sleep=true", "phi_judge.prune=false",
      "phi_judge.time_step=0.004", "phi_judge.sample_steps=5"],

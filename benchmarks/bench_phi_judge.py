@@ -5,16 +5,19 @@ member.
 
     python benchmarks/bench_phi_judge.py                       # 8 probe inits, K = 4
     python benchmarks/bench_phi_judge.py --reference HEAD~3 --inits bookshelf:20:6016:4
+    python benchmarks/bench_phi_judge.py --variant "phi_judge.sleep=false" \
+        --variant "phi_judge.threads=2"                         # settings side by side
 
 The paths (fixed, seeded): per initialization (kind:level:seed:angle of the probe tier's
 generator), the baseline's straight paths at the push planner's grasp heights and the search's
 first-round draws (`aim.draw`, seeded like the search) that are feasible. They are built once
 with this checkout's code and saved; then each side judges all of them in the same K members
 of phi (``phi_judge.engine``) the way the search does (``judge_paths(..., complete=False)``),
-in one process per side, one side at a time, this checkout and the reference (a git revision,
-checked out into a temporary worktree) alternating ``--repeats`` times. Printed: per
-initialization and in total the paths, each side's seconds (the best of the repeats) and the
-ratio; then every member reading whose class differs, with both sides' findings (the reason).
+in one process per side, one side at a time, this checkout (once per ``--variant``, each
+with its own overrides) and the reference (a git revision, checked out into a temporary
+worktree) alternating ``--repeats`` times. Printed per variant: per initialization and in
+total the paths, each side's seconds (the best of the repeats) and the ratio; then the member
+readings whose class differs (``--show`` of them), with both sides' findings (the reason).
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ import numpy as np
 DEFAULT_INITS = ("bookshelf:5:3015:4", "bookshelf:10:4015:4", "bookshelf:15:5016:6",
                  "bookshelf:20:6016:9", "fridge:4:10015:6", "fridge:8:12016:7",
                  "fridge:12:14015:4", "fridge:16:16017:9")
-DEFAULT_REFERENCE = "1270f4f"  # the judge before its bulk contact reading and pruning filters
+DEFAULT_REFERENCE = "685b895"  # the judge in phi knot by knot at 2 ms, pruned (2026-11-29)
 ROOT = Path(__file__).resolve().parents[1]
 
 

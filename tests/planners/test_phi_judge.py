@@ -343,3 +343,22 @@ def test_every_stepping_reads_the_plans_and_repeats_its_verdicts(scene, baseline
     assert found[0] == found[1] == found[2]
     assert found[0]["pressing"]["kinds"] == ["kinematic_failure"] * 2
     assert found[0]["outside"]["kinds"] == ["failure_to_grasp"] * 2
+
+
+def test_a_failed_kept_rollout_reads_a_kinematic_failure_of_that_member(scene, monkeypatch):
+    """A MuJoCo reset inside a kept world's run (its NaN jams, `MujocoPhi.kept_knots`) is a
+    failed rollout: a kinematic failure of the member, never a crash or a success."""
+    from drake_clutter.phi.mujoco_phi import MujocoPhi
+
+    def failing(self, knots, trace=False):
+        yield np.full(self.layout.num_boxes, np.nan), set()
+
+    monkeypatch.setattr(MujocoPhi, "kept_knots", failing)
+    config = load_config(None, ["dynamics.workers=0", "phi_judge.members=2"])
+    pressing = _pressing_path()
+    times = np.arange(len(pressing)) * config.baseline.knot_time
+    verdict = judge_paths(scene, {"pressing": pressing}, times, config,
+                          ArmGeometry(scene, "capsules"))["pressing"]
+    assert [r.kind for r in verdict.readings] == ["kinematic_failure"] * 2
+    assert all(f.failed and r.reason == "phi failed on the rollout"
+               for f, r in zip(verdict.findings, verdict.readings, strict=True))

@@ -224,7 +224,7 @@ def held(direction: np.ndarray, generators: list[np.ndarray]) -> bool:
     ``direction``: -direction lies in their cone (non-negative least squares)."""
     if not generators:
         return False
-    G = np.vstack(generators).T
+    G = np.array(generators).T  # rows (3,): np.vstack's checks cost more here
     _, residual = nnls(G, -np.asarray(direction, dtype=float))
     return residual < CONE_TOLERANCE
 

@@ -34,6 +34,7 @@ body frame) velocities; phi's state has w_WB in W: the two are converted here.
 from __future__ import annotations
 
 import copy
+import math
 
 import mujoco
 import numpy as np
@@ -52,6 +53,7 @@ from drake_clutter.phi.state import ARM_DIM, scene_box_states
 from drake_clutter.trajectory import robot_positions
 
 STATIC = -(10 ** 9)  # node of the shelf's geometry (no interaction node)
+SQRT3 = math.sqrt(3.0)
 _BAD_ACCELERATION = int(mujoco.mjtWarning.mjWARN_BADQACC)
 # MuJoCo's warnings after which it resets the data (a bad position, speed or acceleration)
 _RESETS = [int(mujoco.mjtWarning.mjWARN_BADQPOS), int(mujoco.mjtWarning.mjWARN_BADQVEL),
@@ -108,7 +110,9 @@ def jam_contacts(model, data, nodes: np.ndarray) -> list[Contact]:
     reached = _pushed_boxes(pairs)
     if not reached:
         return []  # the arm pushes no kept box: no box can be blocked under it
-    hit = np.isin(pairs, np.fromiter(reached, dtype=pairs.dtype, count=len(reached)))
+    lookup = np.zeros(max(reached) + 1, dtype=bool)  # reached nodes are kept boxes, > 0
+    lookup[list(reached)] = True
+    hit = lookup[np.clip(pairs, 0, len(lookup) - 1)] & (pairs > ARM_NODE)
     rows = (pairs[:, 0] != pairs[:, 1]) & (hit[:, 0] | hit[:, 1])
     i = acting[rows]
     contact = data.contact  # read in bulk: each attribute access builds a view
@@ -423,7 +427,11 @@ class MujocoPhi(PhiBase):
         """`dynamics.cap_box_speeds` on the kept world, writing only the boxes it slows (a
         write to a sleeping box would wake it; a sleeping box is never capped)."""
         d = self.data
-        capped = cap_box_speeds(d.qvel, self._cap_index, self.spec.config)
+        config = self.spec.config
+        if np.abs(d.qvel[self._box_v]).max(initial=0.0) * SQRT3 <= min(config.max_box_speed,
+                                                                       config.max_box_spin):
+            return  # no box near either cap (|v| <= sqrt(3) max |v_i|): nothing to slow
+        capped = cap_box_speeds(d.qvel, self._cap_index, config)
         if capped is d.qvel:
             return
         rows = np.any(capped[self._cap_index] != d.qvel[self._cap_index], axis=1)

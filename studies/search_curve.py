@@ -19,6 +19,8 @@ planner searched (no clear straight start), every ``--stride``-th. On each:
 Printed: per round, the mean paths judged in phi, the mean robust P(success), the paired
 difference against today's search and against the baseline (bootstrap 95 % intervals over the
 initializations), and how often the returned path is a bent one with robust P(success) >= 0.5.
+An initialization whose angle has no baseline path (the push planner searched from a turned
+angle's line) is skipped and counted.
 ``--cache`` keeps one JSON line per initialization, so a stopped run resumes.
 
 Its dated results: docs/log/push_planner.md.
@@ -84,6 +86,9 @@ def one(job: dict) -> dict:
                              f"push_search.elite={job['elite']}"])
     scene = stored_scene(job["scene"], config)
     baseline = plan_one_angle(scene, config, "baseline", job["angle"])
+    if baseline.trajectory is None:  # the push planner searched from turned angles' lines
+        return {"scene": job["scene"], "angle": job["angle"],
+                "skipped": f"no baseline path at this angle ({baseline.reason})"}
     context = PlanningContext(scene, config)
     times = baseline.trajectory.times
     starts = {start_key(*k): c.trajectory.q
@@ -203,13 +208,21 @@ def main(argv=None) -> int:
         for future in as_completed([pool.submit(one, job) for job in jobs]):
             line = future.result()
             done[(line["scene"], line["angle"])] = line
-            print(f"{line['scene']} {line['angle']}: baseline {line['baseline']['p_success']:.2f}"
-                  f" today {line['today']['p_success']:.2f} cem "
-                  f"{[c['p_success'] for c in line['cem']]}", flush=True)
+            if "skipped" in line:
+                print(f"{line['scene']} {line['angle']}: skipped, {line['skipped']}", flush=True)
+            else:
+                print(f"{line['scene']} {line['angle']}: baseline "
+                      f"{line['baseline']['p_success']:.2f}"
+                      f" today {line['today']['p_success']:.2f} cem "
+                      f"{[c['p_success'] for c in line['cem']]}", flush=True)
             if args.cache:
                 with args.cache.open("a") as f:
                     f.write(json.dumps(line) + "\n")
-    print(summary([done[(s, a)] for s, a, _ in inits if (s, a) in done]))
+    lines = [done[(s, a)] for s, a, _ in inits if (s, a) in done]
+    skipped = [x for x in lines if "skipped" in x]
+    if skipped:
+        print(f"{len(skipped)} initializations skipped: no baseline path at their angle")
+    print(summary([x for x in lines if "skipped" not in x]))
     return 0
 
 

@@ -265,24 +265,11 @@ class MujocoPhi(PhiBase):
         if not (np.all(np.isfinite(x)) and np.all(np.isfinite(u))):
             self.failures += 1
             return np.full(self.layout.nx, np.nan), set(), f * np.nan
-        m, d, n = self.model, self.data, self.substeps
+        d, n = self.data, self.substeps
         q_start, q_end = robot_positions(x[:ARM_DIM]), robot_positions(u)
-        v_arm = (q_end - q_start) / self.spec.knot_time
-        self._load(x, q_start, v_arm)
+        self._load(x, q_start, (q_end - q_start) / self.spec.knot_time)
         edges = self._near_edges() if trace else set()
-        chunk = self.spec.config.mujoco_sample_steps
-        for k in range(0, n, chunk):
-            steps = min(chunk, n - k)
-            d.qpos[self._arm_q] = q_start + (q_end - q_start) * (k / n)
-            d.qvel[self._arm_v] = v_arm
-            mujoco.mj_step(m, d, steps)
-            if trace:
-                edges |= self._edges()
-            if forces:
-                self._add_forces(f, shelf, steps)
-            if jam is not None:
-                self._jam_approach(v_arm, jam, steps)
-            d.qvel[:] = cap_box_speeds(d.qvel, self._cap_index, self.spec.config)
+        edges |= self._runs(q_start, q_end, trace, jam, (f, shelf) if forces else None)
         x_next = self._read(u)
         if trace:
             d.qpos[self._arm_q] = q_end
@@ -403,8 +390,21 @@ class MujocoPhi(PhiBase):
         """One knot interval of the kept world, the arm on the straight joint-space line from
         knot a to knot b (8,) as `_step` moves it; the jam added to ``jam``; the edges seen
         (with ``trace``)."""
+        q_end = robot_positions(b)
+        edges = self._runs(robot_positions(a), q_end, trace, jam)
+        self.data.qpos[self._arm_q] = q_end  # where the next knot starts it (`_near_edges` too)
+        if trace:
+            edges |= self._near_edges()
+        return edges
+
+    def _runs(self, q_start: np.ndarray, q_end: np.ndarray, trace: bool,
+              jam: np.ndarray | None, forces: tuple | None = None) -> set:
+        """Steps one knot interval from the data as it is, in runs of ``mujoco_sample_steps``
+        steps, the arm's joints set on their line from ``q_start`` to ``q_end`` with its
+        velocity before each run; after each, the run's contact edges (with ``trace``,
+        returned), forces (``forces``: the (f, shelf) sums `_add_forces` adds to) and jam (added
+        to ``jam``) are read and the box speeds capped."""
         m, d, n = self.model, self.data, self.substeps
-        q_start, q_end = robot_positions(a), robot_positions(b)
         v_arm = (q_end - q_start) / self.spec.knot_time
         chunk = self.spec.config.mujoco_sample_steps
         edges = set()
@@ -415,17 +415,16 @@ class MujocoPhi(PhiBase):
             mujoco.mj_step(m, d, steps)
             if trace:
                 edges |= self._edges()
+            if forces is not None:
+                self._add_forces(*forces, steps)
             if jam is not None:
                 self._jam_approach(v_arm, jam, steps)
-            self._cap_kept_speeds()
-        d.qpos[self._arm_q] = q_end  # where the next knot starts it (and `_near_edges` reads)
-        if trace:
-            edges |= self._near_edges()
+            self._cap_speeds()
         return edges
 
-    def _cap_kept_speeds(self) -> None:
-        """`dynamics.cap_box_speeds` on the kept world, writing only the boxes it slows (a
-        write to a sleeping box would wake it; a sleeping box is never capped)."""
+    def _cap_speeds(self) -> None:
+        """`dynamics.cap_box_speeds` on the data, writing only the boxes it slows (a write to
+        a sleeping box would wake it; a sleeping box is never capped)."""
         d = self.data
         config = self.spec.config
         if np.abs(d.qvel[self._box_v]).max(initial=0.0) * SQRT3 <= min(config.max_box_speed,

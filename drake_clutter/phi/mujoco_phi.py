@@ -9,7 +9,10 @@ the last step the arm's state is u exactly); the boxes start at their state. Aft
 phi reads the contacts of its last step (forces, edges, jam, each standing for the run's
 steps) and caps every box's speed as the Drake phi does (`dynamics.cap_box_speeds`). Every
 knot starts from ``mj_resetData`` (no warm start kept between calls), so the same (x, u)
-gives the same bits.
+gives the same bits. The judge in phi does not step functionally: `MujocoPhi.keep_world`
+settles the boxes once and `kept_knots` runs each path from a copy of that world through its
+knots with no reset (the same runs, arm and readings), so MuJoCo's sleeping islands
+(``mujoco_sleep``) keep the resting boxes out of the step.
 
 Outputs, as `dynamics.Phi`'s: the next state; the interaction edges (pairs of nodes whose
 geometries touch at the end of a run, or lie within ``interaction_margin`` at the knot's start

@@ -437,40 +437,56 @@ def _rollouts(phi, x0: np.ndarray, paths: dict[str, np.ndarray], phi_judge: PhiJ
 
 def _judged_rollout(phi, x0: np.ndarray, q: np.ndarray, hold_knots: int,
                     stop: float | None, deadline: float | None = None) -> JudgedRollout:
-    """One path from x0 (its arm set to q[0]) through its knots and the hold; `UNFINISHED`
-    once the `time.monotonic` ``deadline`` has passed before a knot."""
-    layout = phi.layout
-    x = x0.copy()
-    x[:ARM_DIM] = q[0]
-    worst, touched = 0.0, set()
-    trace = bool(phi.spec.frozen)  # the edges only say which frozen boxes were reached
-    for u in [*q[1:], *([q[-1]] * hold_knots)]:
-        if past(deadline):
-            return UNFINISHED
-        try:
-            if trace:
-                x, edges, jam = phi.step_traced_jam(x, u)
-                touched |= phi.frozen_touched(edges)
-            else:
-                x, jam = phi.step_jam(x, u)
-        except (RuntimeError, ValueError):  # Drake's solver errors while stepping
-            return JudgedRollout(None, None, touched=frozenset(touched))
-        if not layout.is_state(x):
-            return JudgedRollout(None, None, touched=frozenset(touched))
-        worst = max(worst, float(jam.max(initial=0.0)))
-        if stop is not None and worst >= stop:
-            return JudgedRollout(None, worst, True, frozenset(touched))
-    return JudgedRollout(dict(zip(layout.box_names, layout.boxes(x).copy(), strict=True)),
-                         worst, touched=frozenset(touched))
+    """One path from x0 (its arm set to q[0]) through its knots and the hold, phi(x, u) knot
+    by knot; `UNFINISHED` once the `time.monotonic` ``deadline`` has passed before a knot."""
+    state = {"x": x0}
+    run = _stepped_knots(phi, x0, _held(q, hold_knots), bool(phi.spec.frozen), state)
+    return _read_run(phi, run, lambda: state["x"], stop, deadline)
 
 
 def _kept_rollout(phi, q: np.ndarray, hold_knots: int, stop: float | None,
                   deadline: float | None = None) -> JudgedRollout:
     """`_judged_rollout` in phi's kept world (`MujocoPhi.kept_knots`: the world settled once,
     never reset between knots)."""
+    run = phi.kept_knots(_held(q, hold_knots), trace=bool(phi.spec.frozen))
+    return _read_run(phi, run, lambda: phi.kept_state, stop, deadline)
+
+
+def _held(q: np.ndarray, hold_knots: int) -> np.ndarray:
+    """The knots of a path (T + 1, 8) with its last one repeated ``hold_knots`` times."""
+    return np.array([*q, *([q[-1]] * hold_knots)])
+
+
+def _stepped_knots(phi, x0: np.ndarray, knots: np.ndarray, trace: bool, state: dict):
+    """phi(x, u) from x0 (its arm set to knots[0]) through the later knots, yielding each
+    knot's (jam per kept box, m; edges, with ``trace``) as `MujocoPhi.kept_knots` does, the
+    state after it in ``state["x"]``; a Drake solver error or a state out of phi's layout
+    yields NaN jams and ends."""
+    x = x0.copy()
+    x[:ARM_DIM] = knots[0]
+    for u in knots[1:]:
+        try:
+            if trace:
+                x, edges, jam = phi.step_traced_jam(x, u)
+            else:
+                (x, jam), edges = phi.step_jam(x, u), set()
+        except (RuntimeError, ValueError):  # Drake's solver errors while stepping
+            yield np.full(phi.layout.num_boxes, np.nan), set()
+            return
+        if not phi.layout.is_state(x):
+            yield jam * np.nan, edges
+            return
+        state["x"] = x
+        yield jam, edges
+
+
+def _read_run(phi, run, final, stop: float | None, deadline: float | None) -> JudgedRollout:
+    """The `JudgedRollout` of a run of knots (an iterator of (jam, edges) per knot, NaN jams
+    for a failed one), ``final()`` its last state: the largest knot's jam, the frozen boxes
+    reached, stopped once the jam reaches ``stop``; `UNFINISHED` once the ``deadline`` has
+    passed before a knot."""
     touched = set()
     worst = 0.0
-    run = phi.kept_knots(np.array([*q, *([q[-1]] * hold_knots)]), trace=bool(phi.spec.frozen))
     try:
         while True:
             if past(deadline):
@@ -487,7 +503,7 @@ def _kept_rollout(phi, q: np.ndarray, hold_knots: int, stop: float | None,
                 return JudgedRollout(None, worst, True, frozenset(touched))
     finally:
         run.close()
-    boxes = phi.layout.boxes(phi.kept_state).copy()
+    boxes = phi.layout.boxes(final()).copy()
     return JudgedRollout(dict(zip(phi.layout.box_names, boxes, strict=True)), worst,
                          touched=frozenset(touched))
 

@@ -54,7 +54,7 @@ from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store
 from drake_clutter.planners.context import PlanningContext
-from drake_clutter.planners.push.aim import approach_frame
+from drake_clutter.planners.tool_path import approach_frame
 from drake_clutter.scene.scenes import fits_on_shelf, footprints_overlap
 
 

@@ -52,8 +52,9 @@ from drake_clutter.phi.pruning import prune
 from drake_clutter.phi.state import scene_box_states
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.members import member_world
-from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
+from drake_clutter.planners.push.aim import draw, obstructions
 from drake_clutter.planners.push.family import feasible, member_path
+from drake_clutter.planners.tool_path import approach_frame
 
 BOARD_NORMAL_Z = 0.7  # |n_z| above this reads a board (floor or ceiling), else a wall (ours)
 

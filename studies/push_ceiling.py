@@ -53,8 +53,9 @@ from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import stored_plans
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.phi_judge import judge_paths
-from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
+from drake_clutter.planners.push.aim import draw, obstructions
 from drake_clutter.planners.push.family import feasible, member_path
+from drake_clutter.planners.tool_path import approach_frame
 from drake_clutter.trajectory import Trajectory
 
 DEFAULT_HEIGHT = "h0.5"

@@ -29,6 +29,7 @@ from drake_clutter.common.physics_config import (
     PhiJudgeConfig,
     PhysicsConfig,
     PushSearchConfig,
+    RearrangeConfig,
     StartsConfig,
 )
 from drake_clutter.common.typed_yaml import (
@@ -411,6 +412,8 @@ class Config:
     phi_judge: PhiJudgeConfig = field(default_factory=PhiJudgeConfig)
     # the push planner: its path family and search (beyond the paper), section; ours
     push_search: PushSearchConfig = field(default_factory=PushSearchConfig)
+    # the rearrange planner: pushes that make room before the reach (beyond the paper), section; ours
+    rearrange: RearrangeConfig = field(default_factory=RearrangeConfig)
     # Meshcat replays of plans (beyond the paper), section; ours
     viz: VizConfig = field(default_factory=VizConfig)
     # statistics of the experiment report (beyond the paper), section; ours

@@ -372,3 +372,52 @@ class PushSearchConfig:
                  f"at least push_search.knot_low ({self.knot_low:g})"),
                 ("progress_high", self.progress_low <= self.progress_high,
                  f"at least push_search.progress_low ({self.progress_low:g})")]
+
+
+@dataclass(frozen=True)
+class RearrangeConfig:
+    """The rearrange planner (beyond the paper): which boxes crowding the final reach to push
+    where and in what order (a beam search on the board, geometry first), the push actions'
+    paths, and the judgement in phi that accepts a sequence. All ours."""
+
+    # depth a box other than the target may enter the reach's swept arm and open gripper, m; ours
+    deep: float = bounded(0.005, ge=0.0, le=0.1)
+    # push moves in a sequence at most, count; ours (Dogar & Srinivasa; M4M)
+    max_moves: int = bounded(6, ge=1, le=20)
+    # board states kept per depth of the beam search, count; ours
+    beam_width: int = bounded(4, ge=1, le=100)
+    # push directions tried per box, evenly spread on the board, count; ours
+    directions: int = bounded(8, ge=1, le=64)
+    # most a push direction may point back toward the robot (cosine with the approach), unitless; ours
+    pull_limit: float = bounded(0.1, ge=0.0, le=1.0)
+    # increment of a push's travel while the board search looks for room, m; ours
+    step: float = bounded(0.01, gt=0.0, le=0.1)
+    # longest travel of one pushed box, m; ours
+    max_travel: float = bounded(0.2, gt=0.0, le=1.0)
+    # travel added past the point where the pushed box leaves the reach, m; ours
+    travel_margin: float = bounded(0.02, ge=0.0, le=0.2)
+    # boxes one push moves at most, the pushed box and those it shoves ahead, count; ours
+    chain: int = bounded(3, ge=1, le=10)
+    # gap between the closed gripper and the box's face before a push, m; ours
+    standoff: float = bounded(0.03, ge=0.0, le=0.2)
+    # how far the gripper backs off along the push after it, m; ours
+    retreat: float = bounded(0.05, ge=0.0, le=0.3)
+    # height of the push above the box's bottom, a fraction of its height, unitless; ours
+    push_height: float = bounded(0.4, gt=0.0, lt=1.0)
+    # speed of the tool frame moving to and from a push, m/s; ours
+    tool_speed: float = bounded(0.15, gt=0.0, le=1.0)
+    # speed of the tool frame while it pushes, m/s; ours
+    push_speed: float = bounded(0.05, gt=0.0, le=1.0)
+    # depth the closed gripper and arm may enter a box it is not pushing, m; ours
+    entry_tolerance: float = bounded(0.02, ge=0.0, le=0.1)
+    # sequences that make room on the board judged in phi, the cheapest first, count; ours
+    sequences: int = bounded(4, ge=1, le=100)
+    # least P(success) in phi's members for a sequence to replace the push answer, unitless; ours
+    acceptance: float = bounded(0.5, ge=0.0, le=1.0)
+    # wall time of the rearrange planner on one initialization, after the push planner, s; ours
+    time_budget: float | None = bounded(120.0, gt=0.0, le=86400.0)
+
+    def relations(self):
+        """(dotted field, holds, what it must be) between this section's fields."""
+        return [("max_travel", self.step <= self.max_travel,
+                 f"at least rearrange.step ({self.step:g})")]

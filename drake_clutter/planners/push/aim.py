@@ -28,8 +28,7 @@ import numpy as np
 from drake_clutter.common.config import PushSearchConfig
 from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.push.family import PushPath, ViaPoint, draw_member
-
-UP = np.array([0.0, 0.0, 1.0])
+from drake_clutter.planners.tool_path import UP, ApproachFrame
 
 
 @dataclass(frozen=True)
@@ -43,39 +42,6 @@ class Obstruction:
     lateral: float
     half_along: float
     half_side: float
-
-
-@dataclass(frozen=True)
-class ApproachFrame:
-    """G's positions along the straight path (T + 1, 3, W), the approach direction ``d`` and
-    ``side`` (unit, horizontal, W), and each knot's depth along d from the pre-grasp (m)."""
-
-    positions: np.ndarray
-    d: np.ndarray
-    side: np.ndarray
-
-    @property
-    def along(self) -> np.ndarray:
-        """Each knot's G depth along d relative to the pre-grasp (m, <= 0 before it)."""
-        return (self.positions - self.positions[-1]) @ self.d
-
-    def progress_at(self, depth: float) -> float:
-        """The straight path's progress (0..1) where G first reaches ``depth`` (m along d from
-        the pre-grasp), clipped to the path."""
-        reached = np.maximum.accumulate(self.along)
-        s = np.linspace(0.0, 1.0, len(reached))
-        keep = np.r_[True, np.diff(reached) > 1e-9]
-        return float(np.interp(depth, reached[keep], s[keep]))
-
-
-def approach_frame(geometry: ArmGeometry, straight: np.ndarray) -> ApproachFrame:
-    """The approach frame of the straight path (T + 1, 8) (module docstring)."""
-    positions = np.array([geometry.tool_jacobian(q)[0].translation() for q in straight])
-    d = geometry.tool_axis(straight[-1], 0)[0].copy()
-    d[2] = 0.0
-    d /= np.linalg.norm(d)
-    side = np.cross(UP, d)
-    return ApproachFrame(positions, d, side / np.linalg.norm(side))
 
 
 def obstructions(geometry: ArmGeometry, straight: np.ndarray, frame: ApproachFrame,

@@ -21,7 +21,7 @@ narrower between boxes. The start knot and the pre-grasp knot are the straight p
 The joint path follows G's targets knot by knot: at each knot the straight path's
 configuration at the same progress (linearly interpolated between its knots) is the seed, and
 damped Gauss-Newton steps on the pose error (position and orientation; the orientation is the
-straight path's at that progress) bring G onto the target (`follow_targets`). A member is
+straight path's at that progress) bring G onto the target (`tool_path.follow_targets`). A member is
 feasible when every knot converged, the joints stay in their limits and speeds
 (`trajectory.plan_limit_violation`, the judge's own check), and the arm clears the shelf
 (`clearance.dense_check`). Frames: W the world, G the tool frame; metres, radians, seconds.
@@ -36,12 +36,9 @@ import numpy as np
 from drake_clutter.common.config import Config, PushSearchConfig
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.geometry import ArmGeometry
+from drake_clutter.planners.tool_path import ARM, follow_targets
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
-ARM = 7  # arm joints; column 7 of a path is the gripper opening (m)
-DAMPING = 1e-6  # damped least squares: lambda^2 added to J J^T (m^2, rad^2)
-POSE_TOLERANCE = 1e-4  # m and rad: a knot's G is on its target within this
-MAX_NEWTON = 20  # Gauss-Newton steps per knot at most
 POSE_LIMIT = 1e-3  # m or rad: a member whose knots miss their targets by more is dropped
 
 
@@ -88,35 +85,6 @@ def _at_progress(q: np.ndarray, s: float) -> np.ndarray:
     i = min(int(np.floor(x)), len(q) - 2)
     lam = x - i
     return (1.0 - lam) * q[i] + lam * q[i + 1]
-
-
-def _rotation_error(R_target: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """The rotation vector (W) that turns R onto R_target (small angles)."""
-    E = R_target @ R.T
-    return 0.5 * np.array([E[2, 1] - E[1, 2], E[0, 2] - E[2, 0], E[1, 0] - E[0, 1]])
-
-
-def follow_targets(geometry: ArmGeometry, seeds: np.ndarray, targets: np.ndarray,
-                   rotations: np.ndarray) -> tuple[np.ndarray, float]:
-    """Arm configurations (K, 8) that put G at ``targets`` (K, 3, W) with ``rotations`` (K, 3,
-    3), each found by damped Gauss-Newton from its seed row (K, 8; the opening is kept), and
-    the largest remaining pose error (m or rad)."""
-    out = np.array(seeds, dtype=float)
-    worst = 0.0
-    for k in range(len(out)):
-        for _ in range(MAX_NEWTON):
-            X, J = geometry.tool_jacobian(out[k])
-            err = np.r_[_rotation_error(rotations[k], X.rotation().matrix()),
-                        targets[k] - X.translation()]
-            if np.abs(err).max() < POSE_TOLERANCE:
-                break
-            Ja = J[:, :ARM]
-            out[k, :ARM] += Ja.T @ np.linalg.solve(Ja @ Ja.T + DAMPING * np.eye(6), err)
-        X, _ = geometry.tool_jacobian(out[k])
-        err = np.r_[_rotation_error(rotations[k], X.rotation().matrix()),
-                    targets[k] - X.translation()]
-        worst = max(worst, float(np.abs(err).max()))
-    return out, worst
 
 
 def member_path(geometry: ArmGeometry, straight: np.ndarray, member: PushPath,

@@ -56,8 +56,9 @@ from drake_clutter.common.config import PushSearchConfig
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.phi_judge import PhiVerdict, judge_paths
-from drake_clutter.planners.push.aim import approach_frame, draw, obstructions
+from drake_clutter.planners.push.aim import draw, obstructions
 from drake_clutter.planners.push.family import PushPath, ViaPoint, feasible, member_path
+from drake_clutter.planners.tool_path import approach_frame
 
 
 @dataclass(frozen=True)

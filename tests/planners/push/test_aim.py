@@ -15,11 +15,11 @@ from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.push.aim import (
     Obstruction,
     aimed_member,
-    approach_frame,
     draw,
     obstructions,
 )
 from drake_clutter.planners.push.family import member_path
+from drake_clutter.planners.tool_path import approach_frame
 from drake_clutter.scene import scenes
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
 

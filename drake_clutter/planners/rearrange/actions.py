@@ -1,0 +1,193 @@
+"""One push action of the rearrange planner as a joint path, and its geometric checks.
+
+A move pushes box B along a horizontal unit direction u by ``travel`` (m). Its path, from and
+back to the reach's first configuration q0 (outside the shelf), moves the tool frame G with the
+pre-grasp's orientation and the gripper closed through:
+
+1. the portal in: G at the pre-contact point's height and side, as far out as q0's G;
+2. the pre-contact point: B's centre at ``push_height`` of its height, backed off along -u by
+   B's half extent along u and ``standoff`` and by the closed gripper's own gap to B there;
+3. the push: along u by that gap plus ``travel``, at ``push_speed``;
+4. the retreat: back along -u by ``retreat``, then out along the approach to the portal;
+5. q0 again, the joints interpolated.
+
+Knots are ``baseline.knot_time`` apart; G moves at ``tool_speed`` except while it pushes. The
+joints follow G knot by knot (`tool_path.follow_chain`). The path is refused (None, with the
+reason) where G misses its targets, or the arm enters a box it does not push by more than
+``entry_tolerance`` on the way in or out (boxes at the board's poses before the move; after
+it on the way out). Frames: W; metres, seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from drake_clutter.common.config import Config
+from drake_clutter.planners.geometry import ArmGeometry
+from drake_clutter.planners.rearrange.board import Offsets, entered, world_poses
+from drake_clutter.planners.tool_path import ARM, ApproachFrame, follow_chain
+from drake_clutter.robot import pr2
+
+POSE_LIMIT = 1e-3  # m or rad: an action whose knots miss their G targets by more is refused
+CLOSED = 0.0  # m: the gripper's opening while it pushes
+
+
+@dataclass(frozen=True)
+class Move:
+    """One push: ``box`` along ``u`` (2,) by ``travel`` (m); ``moved``: every box it moves on
+    the board (the chain, ``box`` first)."""
+
+    box: str
+    u: tuple[float, float]
+    travel: float
+    moved: tuple[str, ...]
+
+    def to_data(self) -> dict:
+        """JSON-ready dict."""
+        return {"box": self.box, "u": list(self.u), "travel": self.travel,
+                "moved": list(self.moved)}
+
+
+def _segment(a: np.ndarray, b: np.ndarray, speed: float, knot_time: float) -> np.ndarray:
+    """G targets (K, 3) from ``a`` (excluded) to ``b`` (included) at ``speed`` (m/s)."""
+    knots = max(1, int(np.ceil(np.linalg.norm(b - a) / (speed * knot_time))))
+    return a + np.outer(np.arange(1, knots + 1) / knots, b - a)
+
+
+def contact_point(geometry: ArmGeometry, board_poses: dict, move: Move, config: Config
+                  ) -> np.ndarray:
+    """G's pre-contact point (3,) in W (module docstring, step 2), before the gripper's gap."""
+    box = next(b for b in geometry.scene.boxes if b.name == move.box)
+    X = board_poses[move.box]
+    u = np.array([move.u[0], move.u[1], 0.0])
+    half = np.asarray(box.size) / 2.0
+    along = float(np.abs(X.rotation().matrix().T @ u) @ half)
+    centre = X.translation()
+    z = centre[2] - half[2] + config.rearrange.push_height * box.size[2]
+    p = centre - (along + config.rearrange.standoff) * u
+    return np.array([p[0], p[1], z])
+
+
+def _gap(geometry: ArmGeometry, q: np.ndarray, poses: dict, box: str) -> float:
+    """The capsule arm's signed distance (m) to ``box`` at ``q``; 1 where farther than 1 m."""
+    found = [c.distance for c in geometry.contacts(q, poses, max_distance=1.0,
+                                                   obstacles="boxes") if c.obstacle == box]
+    return min(found, default=1.0)
+
+
+def action_path(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
+                rotation: np.ndarray, before: Offsets, after: Offsets, move: Move,
+                config: Config) -> tuple[np.ndarray | None, str]:
+    """The knots (K, 8) of ``move`` from q0 back to q0 (module docstring), the board at
+    ``before`` and ``after`` the move, G at ``rotation`` (3, 3); (None, why) where refused:
+    the reason of the last way in tried."""
+    poses = world_poses(geometry, before)
+    p0 = contact_point(geometry, poses, move, config)
+    why = ""
+    for way in ("direct", "corridor"):
+        q_in, why = _way_in(geometry, frame, q0, rotation, poses, move, p0, way, config)
+        if q_in is not None:
+            return _push_and_out(geometry, frame, q0, q_in, rotation, poses, after, move, p0,
+                                 config)
+    return None, why
+
+
+def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotation: np.ndarray,
+            poses: dict, move: Move, p0: np.ndarray, way: str, config: Config
+            ) -> tuple[np.ndarray | None, str]:
+    """The knots from q0 (excluded) to the pre-contact point ``p0`` (3,): "direct" (out in
+    front of the shelf to ``p0``'s side and height, then in along the approach) or
+    "corridor" (along the reach's own G path to ``p0``'s depth, then across to it); backed
+    off along -u once where the closed gripper already touches the box there."""
+    cfg, dt = config.rearrange, config.baseline.knot_time
+    start = frame.positions[0]
+    u = np.array([move.u[0], move.u[1], 0.0])
+    for _ in range(2):
+        if way == "direct":
+            portal = p0 + float((start - p0) @ frame.d) * np.r_[frame.d[:2], 0.0]
+            targets = np.vstack([_segment(start, portal, cfg.tool_speed, dt),
+                                 _segment(portal, p0, cfg.tool_speed, dt)])
+        else:
+            depth = float((p0 - frame.positions[-1]) @ frame.d)
+            ahead = frame.positions[frame.along <= depth + 1e-9]
+            corner = ahead[-1]
+            targets = np.vstack([_path_at_speed(ahead, cfg.tool_speed, dt),
+                                 _segment(corner, p0, cfg.tool_speed, dt)])
+        q_in, error = follow_chain(geometry, q0, targets, rotation,
+                                   np.full(len(targets), CLOSED))
+        if error > POSE_LIMIT:
+            return None, f"G misses the {way} way in by {error * 1e3:.1f} mm"
+        gap = _gap(geometry, q_in[-1], poses, move.box)
+        if gap >= 0.0:
+            break
+        p0 = p0 - (cfg.standoff - gap) * u
+    else:
+        return None, f"the gripper touches {move.box} before the push ({way} way in)"
+    why = _entries(geometry, q_in, poses, frozenset(move.moved), cfg.entry_tolerance,
+                   f"{way} in")
+    return (None, why) if why else (q_in, "")
+
+
+def _path_at_speed(points: np.ndarray, speed: float, knot_time: float) -> np.ndarray:
+    """G targets along the polyline ``points`` (N, 3) from its first point (excluded) at
+    ``speed`` (m/s)."""
+    out = [points[:1]]
+    for a, b in zip(points[:-1], points[1:], strict=True):
+        if np.linalg.norm(b - a) > 1e-9:
+            out.append(_segment(a, b, speed, knot_time))
+    return np.vstack(out)[1:] if len(out) > 1 else points[:1]
+
+
+def _push_and_out(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
+                  q_in: np.ndarray, rotation: np.ndarray, poses: dict, after: Offsets,
+                  move: Move, p0: np.ndarray, config: Config) -> tuple[np.ndarray | None, str]:
+    """The whole action from the way in ``q_in``: the push, the retreat, q0 again."""
+    cfg, dt = config.rearrange, config.baseline.knot_time
+    start = frame.positions[0]
+    u = np.array([move.u[0], move.u[1], 0.0])
+    p0 = geometry.tool_jacobian(q_in[-1])[0].translation()
+    p1 = p0 + (_gap(geometry, q_in[-1], poses, move.box) + move.travel) * u
+    p2 = p1 - cfg.retreat * u
+    out = p2 + float((start - p2) @ frame.d) * np.r_[frame.d[:2], 0.0]
+    pushing = _segment(p0, p1, cfg.push_speed, dt)
+    way_out = np.vstack([_segment(p1, p2, cfg.tool_speed, dt),
+                         _segment(p2, out, cfg.tool_speed, dt)])
+    rest, error = follow_chain(geometry, q_in[-1], np.vstack([pushing, way_out]), rotation,
+                               np.full(len(pushing) + len(way_out), CLOSED))
+    if error > POSE_LIMIT:
+        return None, f"G misses the push or the way out by {error * 1e3:.1f} mm"
+    why = _entries(geometry, rest[:len(pushing)], poses, frozenset(move.moved),
+                   cfg.entry_tolerance, "pushing")
+    why = why or _entries(geometry, rest[len(pushing):], world_poses(geometry, after),
+                          frozenset(), cfg.entry_tolerance, "out")
+    if why:
+        return None, why
+    path = np.vstack([q0[None], q_in, rest, _home(rest[-1], q0, config)])
+    path[0, ARM] = CLOSED
+    return path, ""
+
+
+def _entries(geometry: ArmGeometry, q: np.ndarray, poses: dict, skip: frozenset[str],
+             tolerance: float, where: str) -> str:
+    """Why the arm at the knots ``q`` enters a box not in ``skip`` by more than ``tolerance``
+    (m); '' where it does not."""
+    target = geometry.scene.target
+    for row in q:
+        for name, depth in entered(geometry, row, poses, skip).items():
+            if depth > tolerance or name == target and depth > 0.0:
+                return f"the arm enters {name} by {depth * 1e3:.0f} mm on the way {where}"
+    return ""
+
+
+def _home(q_from: np.ndarray, q0: np.ndarray, config: Config) -> np.ndarray:
+    """Knots from ``q_from`` (excluded) to ``q0`` (included), joints linear, at most half the
+    judge's joint speed limit per knot; the gripper stays closed."""
+    speeds = pr2.velocity_limits()
+    limit = 0.5 * np.array([speeds[j] for j in pr2.ARM_JOINTS]) * config.baseline.knot_time
+    knots = max(1, int(np.ceil(np.max(np.abs(q0[:ARM] - q_from[:ARM]) / limit))))
+    s = np.arange(1, knots + 1)[:, None] / knots
+    path = q_from + s * (q0 - q_from)
+    path[:, ARM] = CLOSED
+    return path

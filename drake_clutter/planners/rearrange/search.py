@@ -1,0 +1,186 @@
+"""Which boxes to push, where, and in what order: a beam search on the board, geometry first.
+
+A state is the board after some moves (`board.Board` offsets) with the moves' joint paths. Its
+crowd is the boxes other than the target that the region to clear (`board.reach_region`)
+enters by more than ``rearrange.deep``. A state is expanded by pushing one of its crowding
+boxes (each of them: the orderings are searched, not fixed) along each of
+``rearrange.directions`` horizontal directions (none pointing back toward the robot by more
+than ``pull_limit``) just far enough that it leaves the region, plus ``travel_margin``; the
+boxes it meets are shoved ahead (``chain``). Children are ranked by how many boxes still crowd
+the region, then by the boxes' total travel; the best ``beam_width`` whose push action has a
+path (`actions.action_path`: reachable, off the other boxes) are kept per depth, up to
+``max_moves`` moves. A state with no crowd is a goal; the search stops with ``sequences``
+goals, at the last depth, or when the deadline passes. Deterministic: same scene and reach,
+same goals. Frames: W; metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drake_clutter.common.config import Config
+from drake_clutter.planners.budget import Deadline
+from drake_clutter.planners.geometry import ArmGeometry
+from drake_clutter.planners.rearrange.actions import Move, action_path
+from drake_clutter.planners.rearrange.board import (
+    Board,
+    Offsets,
+    crowding,
+    moved_boxes,
+    world_poses,
+)
+from drake_clutter.planners.tool_path import ApproachFrame
+
+
+@dataclass(frozen=True)
+class State:
+    """The board after ``moves`` (their knot paths ``paths``), the boxes' total travel (m),
+    the boxes still crowding the region (name -> depth, m) and the board before the last
+    move."""
+
+    offsets: Offsets
+    moves: tuple[Move, ...] = ()
+    paths: tuple[np.ndarray, ...] = ()
+    travel: float = 0.0
+    crowd: dict[str, float] = field(default_factory=dict)
+    previous: Offsets = field(default_factory=dict)
+
+    def key(self) -> tuple[int, float]:
+        """Rank among states, best first: fewer boxes crowding, then less travel."""
+        return (len(self.crowd), self.travel)
+
+
+@dataclass
+class RoomSearch:
+    """The goals found (states with room), and counts: states expanded, pushes the board
+    allowed, actions refused by their paths (with the first reasons), and the deepest depth."""
+
+    goals: list[State] = field(default_factory=list)
+    expanded: int = 0
+    pushes: int = 0
+    refused: int = 0
+    reasons: list[str] = field(default_factory=list)
+    depth: int = 0
+
+    def to_data(self) -> dict:
+        """JSON-ready summary (the goals' moves, not their paths)."""
+        return {"goals": [[m.to_data() for m in g.moves] for g in self.goals],
+                "expanded": self.expanded, "pushes": self.pushes, "refused": self.refused,
+                "reasons": self.reasons[:5], "depth": self.depth}
+
+
+def directions(frame: ApproachFrame, count: int, pull_limit: float) -> list[np.ndarray]:
+    """``count`` horizontal unit directions (2,) evenly spread from the approach direction,
+    those pointing back toward the robot (cosine with it below -``pull_limit``) left out."""
+    d = frame.d[:2] / np.linalg.norm(frame.d[:2])
+    base = np.arctan2(d[1], d[0])
+    out = []
+    for angle in base + np.linspace(0.0, 2 * np.pi, count, endpoint=False):
+        u = np.array([np.cos(angle), np.sin(angle)])
+        if u @ d >= -pull_limit:
+            out.append(u)
+    return out
+
+
+def _distances(geometry: ArmGeometry, region: np.ndarray, offsets: Offsets, box: str,
+               reach: float) -> np.ndarray:
+    """The region's arm's signed distance (m) to ``box`` at each knot (``reach`` where farther)."""
+    poses = world_poses(geometry, offsets)
+    out = np.full(len(region), reach)
+    for k, q in enumerate(region):
+        for c in geometry.contacts(q, poses, max_distance=reach, obstacles="boxes"):
+            if c.obstacle == box:
+                out[k] = min(out[k], c.distance)
+    return out
+
+
+def clearing_push(geometry: ArmGeometry, board: Board, region: np.ndarray, offsets: Offsets,
+                  box: str, u: np.ndarray, config: Config) -> tuple[Offsets, float] | None:
+    """The board after ``box`` is pushed along ``u`` (2,) until the region's arm enters it by
+    at most ``deep``, plus ``travel_margin``, and that travel (m); None where the board blocks
+    the push first (the target, a wall, the board's edge, a chain too long) or it takes more
+    than ``max_travel``."""
+    cfg = config.rearrange
+    d0 = _distances(geometry, region, offsets, box, cfg.max_travel + 0.05)
+    for travel in np.arange(cfg.step, cfg.max_travel + 1e-9, cfg.step):
+        new = board.push(offsets, box, travel * u)
+        if new is None:
+            return None
+        near = region[d0 < -cfg.deep + travel]  # no other knot can still be entered
+        if box not in crowding(geometry, near, new, cfg.deep):
+            final = board.push(offsets, box, (travel + cfg.travel_margin) * u)
+            return (final, travel + cfg.travel_margin) if final is not None else (new, travel)
+    return None
+
+
+def children(geometry: ArmGeometry, board: Board, region: np.ndarray, state: State,
+             frame: ApproachFrame, config: Config, found: RoomSearch) -> list[State]:
+    """Every push of a crowding box of ``state`` that clears it (module docstring), ranked,
+    without its path yet."""
+    cfg = config.rearrange
+    out = []
+    for box in sorted(state.crowd, key=lambda b: (-state.crowd[b], b)):
+        for u in directions(frame, cfg.directions, cfg.pull_limit):
+            pushed = clearing_push(geometry, board, region, state.offsets, box, u, config)
+            if pushed is None:
+                continue
+            new, travel = pushed
+            found.pushes += 1
+            moved = moved_boxes(state.offsets, new)
+            total = sum(float(np.linalg.norm(new[k] - state.offsets.get(k, np.zeros(2))))
+                        for k in moved)
+            move = Move(box, (float(u[0]), float(u[1])), float(travel),
+                        tuple([box] + [k for k in moved if k != box]))
+            out.append(State(new, state.moves + (move,), state.paths, state.travel + total,
+                             crowding(geometry, region, new, cfg.deep), state.offsets))
+    return sorted(out, key=State.key)
+
+
+def _signature(offsets: Offsets) -> tuple:
+    """A board state's identity, offsets rounded to 5 mm."""
+    return tuple(sorted((k, *np.round(v / 0.005).astype(int).tolist())
+                        for k, v in offsets.items() if np.linalg.norm(v) > 1e-6))
+
+
+def search_room(geometry: ArmGeometry, frame: ApproachFrame, region: np.ndarray,
+                q0: np.ndarray, rotation: np.ndarray, config: Config,
+                deadline: Deadline) -> RoomSearch:
+    """The beam search (module docstring) from the boxes at rest; ``q0`` (8,): the reach's
+    first knot, where every action starts and ends; ``rotation`` (3, 3): G's at the pre-grasp."""
+    cfg = config.rearrange
+    board = Board(geometry.scene, cfg.chain)
+    found = RoomSearch()
+    beam = [State({}, crowd=crowding(geometry, region, {}, cfg.deep))]
+    seen = {_signature({})}
+    for depth in range(1, cfg.max_moves + 1):
+        found.depth = depth
+        candidates: list[State] = []
+        for state in beam:
+            if deadline.spend("search"):
+                return found
+            found.expanded += 1
+            candidates += children(geometry, board, region, state, frame, config, found)
+        beam = []
+        for child in sorted(candidates, key=State.key):
+            if len(beam) >= cfg.beam_width or deadline.spend("actions"):
+                break
+            signature = _signature(child.offsets)
+            if signature in seen:
+                continue
+            path, why = action_path(geometry, frame, q0, rotation, child.previous, child.offsets,
+                                    child.moves[-1], config)
+            if path is None:
+                found.refused += 1
+                found.reasons.append(f"{child.moves[-1].box}: {why}")
+                continue
+            seen.add(signature)
+            done = State(child.offsets, child.moves, child.paths + (path,), child.travel,
+                         child.crowd, child.previous)
+            (found.goals if not done.crowd else beam).append(done)
+            if len(found.goals) >= cfg.sequences:
+                return found
+        if not beam:
+            return found
+    return found

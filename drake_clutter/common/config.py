@@ -412,7 +412,7 @@ class Config:
     phi_judge: PhiJudgeConfig = field(default_factory=PhiJudgeConfig)
     # the push planner: its path family and search (beyond the paper), section; ours
     push_search: PushSearchConfig = field(default_factory=PushSearchConfig)
-    # the rearrange planner: pushes that make room before the reach (beyond the paper), section; ours
+    # the rearrange planner: pushes that make room, then the reach (beyond the paper), section; ours
     rearrange: RearrangeConfig = field(default_factory=RearrangeConfig)
     # Meshcat replays of plans (beyond the paper), section; ours
     viz: VizConfig = field(default_factory=VizConfig)

@@ -382,13 +382,15 @@ class RearrangeConfig:
 
     # depth a box other than the target may enter the reach's swept arm and open gripper, m; ours
     deep: float = bounded(0.005, ge=0.0, le=0.1)
+    # last knots of the reach whose swept arm is the region to clear (0: all), count; ours
+    region_knots: int = bounded(1, ge=0, le=1000)
     # push moves in a sequence at most, count; ours (Dogar & Srinivasa; M4M)
     max_moves: int = bounded(6, ge=1, le=20)
     # board states kept per depth of the beam search, count; ours
     beam_width: int = bounded(4, ge=1, le=100)
     # push directions tried per box, evenly spread on the board, count; ours
-    directions: int = bounded(8, ge=1, le=64)
-    # most a push direction may point back toward the robot (cosine with the approach), unitless; ours
+    directions: int = bounded(16, ge=1, le=64)
+    # most a push direction may point back at the robot (minus its cosine with d), unitless; ours
     pull_limit: float = bounded(0.1, ge=0.0, le=1.0)
     # increment of a push's travel while the board search looks for room, m; ours
     step: float = bounded(0.01, gt=0.0, le=0.1)
@@ -409,7 +411,7 @@ class RearrangeConfig:
     # speed of the tool frame while it pushes, m/s; ours
     push_speed: float = bounded(0.05, gt=0.0, le=1.0)
     # depth the closed gripper and arm may enter a box it is not pushing, m; ours
-    entry_tolerance: float = bounded(0.02, ge=0.0, le=0.1)
+    entry_tolerance: float = bounded(0.03, ge=0.0, le=0.1)
     # sequences that make room on the board judged in phi, the cheapest first, count; ours
     sequences: int = bounded(4, ge=1, le=100)
     # least P(success) in phi's members for a sequence to replace the push answer, unitless; ours

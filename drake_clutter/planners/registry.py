@@ -28,7 +28,7 @@ from drake_clutter.scene.scenes import Scene
 from drake_clutter.trajectory import Candidate
 
 # the registry's keys, as typed YAML reads them
-PlannerName = Literal["baseline", "physics", "push"]
+PlannerName = Literal["baseline", "physics", "push", "rearrange"]
 
 
 class PlanRecord(Protocol):
@@ -223,8 +223,36 @@ class PushPlanner(_FromBaseline):
     record_class = ("drake_clutter.planners.push.record", "PushRecord")
 
 
+class RearrangePlanner(_FromBaseline):
+    """Beyond the paper: pushes that make room for the reach before it, from the push
+    planner's answers (`rearrange.planner.plan_rearrange`; table `rearrange_table`: the plan,
+    the boxes crowding the reach, P(success) in phi of it and of the push answer)."""
+
+    name = "rearrange"
+    starts_from = PushPlanner.name
+    module = "drake_clutter.planners.rearrange.planner"
+    functions = ("plan_rearrange", "rearrange_table")
+    record_class = ("drake_clutter.planners.rearrange.record", "RearrangeRecord")
+
+    def plan(self, scene: Scene, config: Config, angles: Sequence[int] | None = None,
+             start: list[Candidate] | None = None) -> list[Candidate]:
+        """`plan_rearrange` on ``start`` (the push planner's candidates, planned here if
+        None)."""
+        if start is None:
+            start = REGISTRY[self.starts_from].plan(scene, config, angles)
+        return super().plan(scene, config, angles, start)
+
+    def score(self, details: dict, config: Config | None = None) -> float | None:
+        """Its record's score where it rearranged, else the push planner's of the push
+        answer it returned."""
+        mine = self.record(details).score()
+        if mine is not None:
+            return mine
+        return REGISTRY[self.starts_from].score(details.get("push") or {}, config)
+
+
 REGISTRY: dict[str, Planner] = {p.name: p for p in (BaselinePlanner(), PhysicsPlanner(),
-                                                    PushPlanner())}
+                                                    PushPlanner(), RearrangePlanner())}
 
 
 # The reference every other planner is compared with (Sec. IV), by name.

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_clutter.common.config import Config
+from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.rearrange.board import Offsets, entered, world_poses
 from drake_clutter.planners.tool_path import ARM, ApproachFrame, follow_chain
@@ -77,21 +78,26 @@ def _gap(geometry: ArmGeometry, q: np.ndarray, poses: dict, box: str) -> float:
     return min(found, default=1.0)
 
 
-def action_path(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
-                rotation: np.ndarray, before: Offsets, after: Offsets, move: Move,
-                config: Config) -> tuple[np.ndarray | None, str]:
+def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame,
+                q0: np.ndarray, rotation: np.ndarray, before: Offsets, after: Offsets,
+                move: Move, config: Config) -> tuple[np.ndarray | None, str]:
     """The knots (K, 8) of ``move`` from q0 back to q0 (module docstring), the board at
     ``before`` and ``after`` the move, G at ``rotation`` (3, 3); (None, why) where refused:
-    the reason of the last way in tried."""
+    the reasons of each way in tried. The path clears the shelf (`clearance.dense_check`)."""
     poses = world_poses(geometry, before)
     p0 = contact_point(geometry, poses, move, config)
-    why = ""
+    reasons = []
     for way in ("direct", "corridor"):
         q_in, why = _way_in(geometry, frame, q0, rotation, poses, move, p0, way, config)
         if q_in is not None:
-            return _push_and_out(geometry, frame, q0, q_in, rotation, poses, after, move, p0,
-                                 config)
-    return None, why
+            path, why = _push_and_out(geometry, frame, q0, q_in, rotation, poses, after, move,
+                                      config)
+        if q_in is not None and path is not None:
+            if dense_check(clearance, path[:, :ARM], config.baseline).passed:
+                return path, ""
+            why = f"the arm meets the shelf ({way} way in)"
+        reasons.append(why)
+    return None, "; ".join(reasons)
 
 
 def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotation: np.ndarray,
@@ -111,7 +117,8 @@ def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotatio
                                  _segment(portal, p0, cfg.tool_speed, dt)])
         else:
             depth = float((p0 - frame.positions[-1]) @ frame.d)
-            ahead = frame.positions[frame.along <= depth + 1e-9]
+            past = np.flatnonzero(frame.along > depth + 1e-9)
+            ahead = frame.positions[:max(1, past[0] if past.size else len(frame.along))]
             corner = ahead[-1]
             targets = np.vstack([_path_at_speed(ahead, cfg.tool_speed, dt),
                                  _segment(corner, p0, cfg.tool_speed, dt)])
@@ -142,7 +149,7 @@ def _path_at_speed(points: np.ndarray, speed: float, knot_time: float) -> np.nda
 
 def _push_and_out(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
                   q_in: np.ndarray, rotation: np.ndarray, poses: dict, after: Offsets,
-                  move: Move, p0: np.ndarray, config: Config) -> tuple[np.ndarray | None, str]:
+                  move: Move, config: Config) -> tuple[np.ndarray | None, str]:
     """The whole action from the way in ``q_in``: the push, the retreat, q0 again."""
     cfg, dt = config.rearrange, config.baseline.knot_time
     start = frame.positions[0]

@@ -2,8 +2,8 @@
 with a planar offset from its resting place, pushed rigidly (a box that a pushed box meets is
 shoved ahead of it along the same direction, a chain); and the region the final reach needs.
 
-The region to clear is the final reach's swept arm: the capsule arm at every knot of the reach
-with the gripper open as at the pre-grasp. A box other than the target that it enters by more
+The region to clear is the final reach's swept arm: the capsule arm at the reach's last
+``rearrange.region_knots`` knots (1: the pre-grasp pose alone) with the gripper open as there. A box other than the target that it enters by more
 than ``rearrange.deep`` must be moved before the reach (Dogar & Srinivasa's negative goal
 region). Geometry only: no friction, no tipping; phi judges what the pushes really do.
 Frames: W; metres, radians.
@@ -106,10 +106,10 @@ def entered(geometry: ArmGeometry, q: np.ndarray, poses: dict[str, RigidTransfor
     return found
 
 
-def reach_region(reach: np.ndarray) -> np.ndarray:
-    """The knots (T + 1, 8) whose swept arm is the region to clear: the reach's, the gripper
-    open as at its last knot (the pre-grasp) all along."""
-    region = np.array(reach, dtype=float)
+def reach_region(reach: np.ndarray, knots: int = 0) -> np.ndarray:
+    """The knots (K, 8) whose swept arm is the region to clear: the reach's last ``knots``
+    (0: all of them; 1: the pre-grasp pose), the gripper open as at its last knot."""
+    region = np.array(reach[-knots:] if knots else reach, dtype=float)
     region[:, ARM] = region[-1, ARM]
     return region
 

@@ -22,6 +22,7 @@ import numpy as np
 
 from drake_clutter.common.config import Config
 from drake_clutter.planners.budget import Deadline
+from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.rearrange.actions import Move, action_path
 from drake_clutter.planners.rearrange.board import (
@@ -144,11 +145,12 @@ def _signature(offsets: Offsets) -> tuple:
                         for k, v in offsets.items() if np.linalg.norm(v) > 1e-6))
 
 
-def search_room(geometry: ArmGeometry, frame: ApproachFrame, region: np.ndarray,
-                q0: np.ndarray, rotation: np.ndarray, config: Config,
+def search_room(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame,
+                region: np.ndarray, q0: np.ndarray, rotation: np.ndarray, config: Config,
                 deadline: Deadline) -> RoomSearch:
     """The beam search (module docstring) from the boxes at rest; ``q0`` (8,): the reach's
-    first knot, where every action starts and ends; ``rotation`` (3, 3): G's at the pre-grasp."""
+    first knot, where every action starts and ends; ``rotation`` (3, 3): G's at the pre-grasp;
+    ``clearance``: the arm against the static shelf."""
     cfg = config.rearrange
     board = Board(geometry.scene, cfg.chain)
     found = RoomSearch()
@@ -169,7 +171,8 @@ def search_room(geometry: ArmGeometry, frame: ApproachFrame, region: np.ndarray,
             signature = _signature(child.offsets)
             if signature in seen:
                 continue
-            path, why = action_path(geometry, frame, q0, rotation, child.previous, child.offsets,
+            path, why = action_path(geometry, clearance, frame, q0, rotation, child.previous,
+                                    child.offsets,
                                     child.moves[-1], config)
             if path is None:
                 found.refused += 1

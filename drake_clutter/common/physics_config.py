@@ -412,10 +412,14 @@ class RearrangeConfig:
     push_speed: float = bounded(0.05, gt=0.0, le=1.0)
     # depth the closed gripper and arm may enter a box it is not pushing, m; ours
     entry_tolerance: float = bounded(0.03, ge=0.0, le=0.1)
+    # depth the closed gripper and arm may enter the target at any time, m; ours
+    target_tolerance: float = bounded(0.003, ge=0.0, le=0.05)
     # sequences that make room on the board judged in phi, the cheapest first, count; ours
     sequences: int = bounded(4, ge=1, le=100)
     # least P(success) in phi's members for a sequence to replace the push answer, unitless; ours
     acceptance: float = bounded(0.5, ge=0.0, le=1.0)
+    # a sequence whose classes tie the crowded push answer's in phi replaces it, flag; ours
+    prefer_room: bool = True
     # wall time of the rearrange planner on one initialization, after the push planner, s; ours
     time_budget: float | None = bounded(120.0, gt=0.0, le=86400.0)
 

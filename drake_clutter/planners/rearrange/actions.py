@@ -5,7 +5,8 @@ back to the reach's first configuration q0 (outside the shelf), moves the tool f
 pre-grasp's orientation and the gripper closed through:
 
 1. the portal in: G at the pre-contact point's height and side, as far out as q0's G;
-2. the pre-contact point: B's centre at ``push_height`` of its height, backed off along -u by
+2. the pre-contact point: B's centre at ``push_height`` of its height (not below G's height at
+   the pre-grasp, where the reach clears the board, unless B is lower), backed off along -u by
    B's half extent along u and ``standoff`` and by the closed gripper's own gap to B there;
 3. the push: along u by that gap plus ``travel``, at ``push_speed``;
 4. the retreat: back along -u by ``retreat``, then out along the approach to the portal;
@@ -57,16 +58,19 @@ def _segment(a: np.ndarray, b: np.ndarray, speed: float, knot_time: float) -> np
     return a + np.outer(np.arange(1, knots + 1) / knots, b - a)
 
 
-def contact_point(geometry: ArmGeometry, board_poses: dict, move: Move, config: Config
-                  ) -> np.ndarray:
-    """G's pre-contact point (3,) in W (module docstring, step 2), before the gripper's gap."""
+def contact_point(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z: float,
+                  config: Config) -> np.ndarray:
+    """G's pre-contact point (3,) in W (module docstring, step 2), before the gripper's gap;
+    never lower than ``grasp_z`` (m, G's height at the pre-grasp, where the reach clears the
+    board) unless the box's top is, then 1 cm below its top."""
     box = next(b for b in geometry.scene.boxes if b.name == move.box)
     X = board_poses[move.box]
     u = np.array([move.u[0], move.u[1], 0.0])
     half = np.asarray(box.size) / 2.0
     along = float(np.abs(X.rotation().matrix().T @ u) @ half)
     centre = X.translation()
-    z = centre[2] - half[2] + config.rearrange.push_height * box.size[2]
+    z = max(centre[2] - half[2] + config.rearrange.push_height * box.size[2], grasp_z)
+    z = min(z, centre[2] + half[2] - 0.01)
     p = centre - (along + config.rearrange.standoff) * u
     return np.array([p[0], p[1], z])
 
@@ -85,7 +89,7 @@ def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
     ``before`` and ``after`` the move, G at ``rotation`` (3, 3); (None, why) where refused:
     the reasons of each way in tried. The path clears the shelf (`clearance.dense_check`)."""
     poses = world_poses(geometry, before)
-    p0 = contact_point(geometry, poses, move, config)
+    p0 = contact_point(geometry, poses, move, float(frame.positions[-1][2]), config)
     reasons = []
     for way in ("direct", "corridor"):
         q_in, why = _way_in(geometry, frame, q0, rotation, poses, move, p0, way, config)
@@ -132,7 +136,7 @@ def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotatio
         p0 = p0 - (cfg.standoff - gap) * u
     else:
         return None, f"the gripper touches {move.box} before the push ({way} way in)"
-    why = _entries(geometry, q_in, poses, frozenset(move.moved), cfg.entry_tolerance,
+    why = _entries(geometry, q_in, poses, frozenset(move.moved), config,
                    f"{way} in")
     return (None, why) if why else (q_in, "")
 
@@ -166,9 +170,9 @@ def _push_and_out(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
     if error > POSE_LIMIT:
         return None, f"G misses the push or the way out by {error * 1e3:.1f} mm"
     why = _entries(geometry, rest[:len(pushing)], poses, frozenset(move.moved),
-                   cfg.entry_tolerance, "pushing")
+                   config, "pushing")
     why = why or _entries(geometry, rest[len(pushing):], world_poses(geometry, after),
-                          frozenset(), cfg.entry_tolerance, "out")
+                          frozenset(), config, "out")
     if why:
         return None, why
     path = np.vstack([q0[None], q_in, rest, _home(rest[-1], q0, config)])
@@ -177,13 +181,14 @@ def _push_and_out(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
 
 
 def _entries(geometry: ArmGeometry, q: np.ndarray, poses: dict, skip: frozenset[str],
-             tolerance: float, where: str) -> str:
-    """Why the arm at the knots ``q`` enters a box not in ``skip`` by more than ``tolerance``
-    (m); '' where it does not."""
-    target = geometry.scene.target
+             config: Config, where: str) -> str:
+    """Why the arm at the knots ``q`` enters a box not in ``skip`` by more than
+    ``rearrange.entry_tolerance``, or the target by more than ``target_tolerance`` (m); ''
+    where it does not."""
+    target, cfg = geometry.scene.target, config.rearrange
     for row in q:
         for name, depth in entered(geometry, row, poses, skip).items():
-            if depth > tolerance or name == target and depth > 0.0:
+            if depth > (cfg.target_tolerance if name == target else cfg.entry_tolerance):
                 return f"the arm enters {name} by {depth * 1e3:.0f} mm on the way {where}"
     return ""
 

@@ -3,9 +3,10 @@ with a planar offset from its resting place, pushed rigidly (a box that a pushed
 shoved ahead of it along the same direction, a chain); and the region the final reach needs.
 
 The region to clear is the final reach's swept arm: the capsule arm at the reach's last
-``rearrange.region_knots`` knots (1: the pre-grasp pose alone) with the gripper open as there. A box other than the target that it enters by more
-than ``rearrange.deep`` must be moved before the reach (Dogar & Srinivasa's negative goal
-region). Geometry only: no friction, no tipping; phi judges what the pushes really do.
+``rearrange.region_knots`` knots (1: the pre-grasp pose alone) with the gripper open as there.
+A box other than the target that it enters by more than ``rearrange.deep`` must be moved
+before the reach (Dogar & Srinivasa's negative goal region). Geometry only: no friction, no
+tipping; phi judges what the pushes really do.
 Frames: W; metres, radians.
 """
 

@@ -10,8 +10,10 @@ judged in phi beside the push answer (the judge in phi, the same members; every 
 its first knot to the same length, so the members see the same end). The best sequence
 replaces the push answer only where it reads P(success) >= ``rearrange.acceptance`` in the
 members, beats the push answer's verdict there, and its classes also beat it on the
-``phi_judge.veto_members`` members no one searched on. The plan's joints and speeds are the
-judge's (`trajectory.plan_limit_violation`) and it clears the shelf (`clearance.dense_check`).
+``phi_judge.veto_members`` members no one searched on; with ``rearrange.prefer_room`` a tie of
+P(success) and the expected grade goes to the sequence (the push answer's reach is crowded).
+The plan keeps the judge's joint and speed limits (`trajectory.plan_limit_violation`) and
+clears the shelf (`clearance.dense_check`).
 
 ``rearrange.time_budget`` (s) bounds the work after the push planner; what it cut is in
 ``details["budget"]`` and the push answer stands. Deterministic: same scene, same plan.
@@ -123,7 +125,7 @@ def _judged(context: PlanningContext, plans: dict[str, np.ndarray], reach: np.nd
     why = "budget" if PUSH not in verdicts or not rooms else ""
     best = min(rooms, key=lambda n: verdicts[n].key()) if rooms else None
     if not why and (verdicts[best].p_success < config.rearrange.acceptance
-                    or verdicts[best].key() >= verdicts[PUSH].key()):
+                    or not _beats(verdicts[best], verdicts[PUSH], config, True)):
         why = "not accepted"
     veto: dict = {}
     if not why:
@@ -132,13 +134,22 @@ def _judged(context: PlanningContext, plans: dict[str, np.ndarray], reach: np.nd
         again = judge_paths(context.scene, {n: paths[n] for n in (best, PUSH)}, times, config,
                             geometry, pool, members=held_out, complete=False,
                             deadline=deadline.at)
-        wins = len(again) == 2 and again[best].class_key() < again[PUSH].class_key()
+        wins = len(again) == 2 and _beats(again[best], again[PUSH], config, False)
         veto = {"members": held_out, "wins": wins, "cut": len(again) < 2,
                 **{n: _summary(v) for n, v in again.items()}}
         why = "" if wins else ("budget" if len(again) < 2 else "veto")
     chosen = best if not why else PUSH
     return chosen, RearrangeRecord(chosen, why, record.crowd, (), record.search, summaries, veto,
                                    deadline.record(), record.push)
+
+
+def _beats(room: PhiVerdict, push: PhiVerdict, config: Config, margin: bool) -> bool:
+    """Whether a sequence's verdict beats the push answer's: by `PhiVerdict.key` (``margin``)
+    or `class_key`; with ``rearrange.prefer_room`` a tie of the classes goes to the sequence
+    (geometry says the push answer's reach is crowded)."""
+    if config.rearrange.prefer_room and room.class_key()[:2] == push.class_key()[:2]:
+        return True
+    return (room.key() < push.key()) if margin else (room.class_key() < push.class_key())
 
 
 def _summary(verdict: PhiVerdict) -> dict:

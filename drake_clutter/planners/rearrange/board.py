@@ -43,7 +43,8 @@ class Board:
         """Offsets after box ``name`` moves by ``shift`` (2,) more, every box it then overlaps
         pushed ahead of it along the same direction as far as it must; None where the move
         pushes the target, leaves a footprint off the board or in a wall, or moves more than
-        ``chain`` boxes."""
+        ``chain`` boxes. Only the end of the shift is checked: a caller sweeping a box steps
+        it (the search by ``rearrange.step``)."""
         new = dict(offsets)
         new[name] = new.get(name, np.zeros(2)) + shift
         box = self.moved(name, new[name])

@@ -1,0 +1,114 @@
+"""Push actions as joint paths and the beam search over them, on a box crowding the grasp:
+the paths start and end at the reach's first knot inside the judge's limits and clear the
+shelf; the search's goals leave the region clear, the same on every run, and a spent budget
+finds nothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from drake_clutter.common.config import Config, load_config
+from drake_clutter.planners.budget import Deadline
+from drake_clutter.planners.clearance import dense_check
+from drake_clutter.planners.rearrange.actions import CLOSED, Move, action_path
+from drake_clutter.planners.rearrange.board import Board, crowding, reach_region
+from drake_clutter.planners.rearrange.search import RoomSearch, State, directions, search_room
+from drake_clutter.planners.tool_path import approach_frame
+from drake_clutter.trajectory import Trajectory, plan_limit_violation
+
+
+@pytest.fixture(scope="module")
+def setting(context, reach_q):
+    geometry = context.arm()
+    frame = approach_frame(geometry, reach_q)
+    rotation = geometry.tool_jacobian(reach_q[-1])[0].rotation().matrix()
+    return geometry, frame, rotation, reach_region(reach_q, 1)
+
+
+@pytest.fixture(scope="module")
+def found(context, reach_q, setting):
+    geometry, frame, rotation, region = setting
+    return search_room(geometry, context.clearance, frame, region, reach_q[0], rotation,
+                       Config(), Deadline(60.0))
+
+
+def test_directions_never_point_back_at_the_robot(setting):
+    frame = setting[1]
+    us = directions(frame, 16, 0.1)
+    assert 9 <= len(us) < 16
+    assert all(u @ frame.d[:2] >= -0.1 - 1e-12 for u in us)
+    assert np.allclose([np.linalg.norm(u) for u in us], 1.0)
+
+
+def test_the_search_finds_pushes_that_clear_the_grasp(found, setting):
+    geometry, _, _, region = setting
+    assert found.goals, found.reasons
+    for goal in found.goals:
+        assert 1 <= len(goal.moves) <= Config().rearrange.max_moves
+        assert len(goal.paths) == len(goal.moves)
+        assert crowding(geometry, region, goal.offsets, Config().rearrange.deep) == {}
+        assert goal.moves[0].box == "side"
+
+
+def test_each_push_path_goes_from_the_first_knot_back_to_it(found, context, reach_q, setting):
+    geometry, frame, _, _ = setting
+    config = Config()
+    for goal in found.goals:
+        for path, move in zip(goal.paths, goal.moves, strict=True):
+            np.testing.assert_allclose(path[0, :7], reach_q[0, :7])
+            np.testing.assert_allclose(path[-1, :7], reach_q[0, :7])
+            assert np.all(path[:, 7] == CLOSED)
+            times = np.arange(len(path)) * config.baseline.knot_time
+            assert plan_limit_violation(Trajectory(times, path), config.evaluation) == ""
+            assert dense_check(context.clearance, path[:, :7], config.baseline).passed
+            # G travels along the push direction at least the box's travel
+            u = np.r_[move.u, 0.0]
+            along = [geometry.tool_jacobian(q)[0].translation() @ u for q in path]
+            assert max(along) - along[0] > move.travel
+
+
+def test_the_search_repeats_itself(found, context, reach_q, setting):
+    geometry, frame, rotation, region = setting
+    again = search_room(geometry, context.clearance, frame, region, reach_q[0], rotation,
+                        Config(), Deadline(60.0))
+    assert [[m.to_data() for m in g.moves] for g in again.goals] == [
+        [m.to_data() for m in g.moves] for g in found.goals]
+    for a, b in zip(again.goals, found.goals, strict=True):
+        for p, q in zip(a.paths, b.paths, strict=True):
+            np.testing.assert_array_equal(p, q)
+
+
+def test_a_spent_budget_finds_nothing_and_says_so(context, reach_q, setting):
+    geometry, frame, rotation, region = setting
+    deadline = Deadline(1e-9)
+    result = search_room(geometry, context.clearance, frame, region, reach_q[0], rotation,
+                         Config(), deadline)
+    assert result.goals == [] and deadline.cut == ["search"]
+
+
+def test_a_push_that_must_cross_the_target_is_refused_naming_it(context, reach_q, setting,
+                                                                 crowded):
+    geometry, frame, rotation, _ = setting
+    board = Board(crowded, 3)
+    u = frame.side[:2]  # the side box away from the target: the gripper would stand in it
+    after = board.push({}, "side", 0.06 * u)
+    path, why = action_path(geometry, context.clearance, frame, reach_q[0], rotation, {},
+                            after, Move("side", tuple(u), 0.06, ("side",)), Config())
+    assert path is None and "target" in why
+
+
+def test_the_settings_are_checked_at_load():
+    from drake_clutter.common.config import ConfigError
+
+    with pytest.raises(ConfigError, match="rearrange.max_moves"):
+        load_config(None, ["rearrange.max_moves=0"])
+    with pytest.raises(ConfigError, match="rearrange.max_travel"):
+        load_config(None, ["rearrange.step=0.05", "rearrange.max_travel=0.02"])
+
+
+def test_a_state_ranks_fewer_crowding_boxes_first():
+    a = State({}, travel=0.5, crowd={})
+    b = State({}, travel=0.1, crowd={"x": 0.01})
+    assert sorted([b, a], key=State.key) == [a, b]
+    assert RoomSearch().to_data()["goals"] == []

@@ -34,12 +34,12 @@ from drake_clutter.trajectory import (
 
 
 def test_the_registry_lists_the_planners_typed_yaml_accepts():
-    assert planner_names() == ("baseline", "physics", "push")
+    assert planner_names() == ("baseline", "physics", "push", "rearrange")
     assert set(get_args(PlannerName)) == set(planner_names())
     for name in planner_names():
         assert get_planner(name).name == name
     assert {name: get_planner(name).starts_from for name in planner_names()} == {
-        "baseline": None, "physics": "baseline", "push": "baseline"}
+        "baseline": None, "physics": "baseline", "push": "baseline", "rearrange": "push"}
 
 
 def test_an_unknown_planner_names_the_file_and_field():

@@ -44,18 +44,18 @@ import argparse
 import json
 import sys
 from collections import Counter
-from dataclasses import replace
 
 import numpy as np
-from pydrake.math import RigidTransform
 
 from drake_clutter.common.config import load_config
 from drake_clutter.common.typed_yaml import InputError
 from drake_clutter.experiments.specs import stored_scene
 from drake_clutter.experiments.store import Store
 from drake_clutter.planners.context import PlanningContext
+from drake_clutter.planners.rearrange.board import Board
+from drake_clutter.planners.rearrange.board import entered as board_entered
+from drake_clutter.planners.rearrange.board import world_poses as board_world_poses
 from drake_clutter.planners.tool_path import approach_frame
-from drake_clutter.scene.scenes import fits_on_shelf, footprints_overlap
 
 
 def baseline_rows(db: str, env: str, levels: list[int], limit: int) -> list[dict]:
@@ -73,78 +73,15 @@ def baseline_rows(db: str, env: str, levels: list[int], limit: int) -> list[dict
     return chosen[:limit] if limit else chosen
 
 
-class Board:
-    """The scene's boxes as footprints on the board, each with a planar offset (m, W) from its
-    resting place; pushes them along a direction, chains included."""
-
-    def __init__(self, scene, chain: int):
-        self.scene, self.chain = scene, chain
-        self.boxes = {b.name: b for b in scene.boxes}
-
-    def moved(self, name: str, offset: np.ndarray):
-        """The box ``name`` at its resting pose shifted by ``offset`` (2,) in W."""
-        box = self.boxes[name]
-        x, y, yaw = box.pose
-        return replace(box, pose=(x + float(offset[0]), y + float(offset[1]), yaw))
-
-    def push(self, offsets: dict, name: str, shift: np.ndarray, depth: int = 0) -> dict | None:
-        """Offsets after box ``name`` moves by ``shift`` (2,) more, every box it then overlaps
-        pushed ahead of it along the same direction as far as it must; None where the move
-        pushes the target, leaves a footprint off the board or in a wall, or needs a chain
-        longer than ``self.chain``."""
-        new = dict(offsets)
-        new[name] = new.get(name, np.zeros(2)) + shift
-        box = self.moved(name, new[name])
-        if not fits_on_shelf(box, self.scene.shelf):
-            return None
-        corners = box.footprint()
-        u = shift / np.linalg.norm(shift)
-        for other in self.boxes:
-            if other == name or not footprints_overlap(
-                    corners, self.moved(other, new.get(other, np.zeros(2))).footprint()):
-                continue
-            if other == self.scene.target or depth + 1 >= self.chain:
-                return None
-            need = self._clearing(corners, other, new.get(other, np.zeros(2)), u)
-            new = self.push(new, other, need * u, depth + 1)
-            if new is None:
-                return None
-        return new
-
-    def _clearing(self, corners: np.ndarray, other: str, offset: np.ndarray,
-                  u: np.ndarray) -> float:
-        """The least travel (m) of box ``other`` along ``u`` that parts its footprint from
-        ``corners`` (bisection to 0.1 mm)."""
-        lo, hi = 0.0, 0.05
-        while footprints_overlap(corners, self.moved(other, offset + hi * u).footprint()):
-            hi *= 2.0
-        while hi - lo > 1e-4:
-            mid = 0.5 * (lo + hi)
-            if footprints_overlap(corners, self.moved(other, offset + mid * u).footprint()):
-                lo = mid
-            else:
-                hi = mid
-        return hi
-
-
 def entered(geometry, scene, q: np.ndarray, poses: dict) -> dict[str, float]:
     """Depth (m) by which the capsule arm at ``q`` enters each box other than the target, the
     boxes at ``poses`` (X_WB by name)."""
-    found: dict[str, float] = {}
-    for c in geometry.contacts(q, poses, max_distance=0.0, obstacles="boxes"):
-        if c.obstacle != scene.target and c.distance < 0.0:
-            found[c.obstacle] = max(found.get(c.obstacle, 0.0), -c.distance)
-    return found
+    return board_entered(geometry, q, poses, frozenset([scene.target]))
 
 
 def world_poses(geometry, board: Board, offsets: dict) -> dict:
     """X_WB of every box: its resting pose translated by its offset."""
-    poses = {}
-    for name in board.boxes:
-        X = geometry.rest_pose(name)
-        shift = offsets.get(name, np.zeros(2))
-        poses[name] = RigidTransform(X.rotation(), X.translation() + [shift[0], shift[1], 0.0])
-    return poses
+    return board_world_poses(geometry, offsets)
 
 
 def clear_box(geometry, board: Board, q, name: str, offsets: dict, d: np.ndarray,

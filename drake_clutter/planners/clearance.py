@@ -37,11 +37,11 @@ from pydrake.multibody.inverse_kinematics import OrientationConstraint, Position
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.solvers import IpoptSolver, MathematicalProgram, SnoptSolver, SolverOptions
 
-from drake_clutter.common.config import BaselineConfig
+from drake_clutter.common.config import BaselineConfig, Config
 from drake_clutter.planners.approach import CONTINUOUS_JOINTS, quiet_drake_warnings
 from drake_clutter.robot import pr2
 from drake_clutter.robot.pr2 import ARM_DOF
-from drake_clutter.trajectory import spline_basis
+from drake_clutter.trajectory import Trajectory, plan_limit_violation, spline_basis
 from drake_clutter.worlds.drake_world import World
 
 OPENING = pr2.GRIPPER_MAX_OPENING  # m: the gripper stays fully open (Sec. V: c_grp_open)
@@ -216,6 +216,14 @@ class OptResult:
     cost: float
     evaluations: int
 
+
+
+def judge_feasible(q: np.ndarray, times: np.ndarray, clearance: ShelfClearance,
+                   config: Config) -> bool:
+    """Whether a knot path (T + 1, 8, at ``times`` s) keeps the judge's joint and speed limits
+    (`trajectory.plan_limit_violation`) and passes the baseline's dense shelf check."""
+    return (not plan_limit_violation(Trajectory(np.asarray(times, float), q), config.evaluation)
+            and dense_check(clearance, q[:, :ARM_DOF], config.baseline).passed)
 
 def interpolate(q_start: np.ndarray, q_end: np.ndarray, num_knots: int) -> np.ndarray:
     """Linear interpolation in joint space: (num_knots, n) rows from q_start to q_end."""

@@ -34,10 +34,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from drake_clutter.common.config import Config, PushSearchConfig
-from drake_clutter.planners.clearance import ShelfClearance, dense_check
+from drake_clutter.planners.clearance import ShelfClearance, judge_feasible
 from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.tool_path import ARM, follow_targets
-from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
 POSE_LIMIT = 1e-3  # m or rad: a member whose knots miss their targets by more is dropped
 
@@ -137,8 +136,5 @@ def feasible(q: np.ndarray, error: float, times: np.ndarray, clearance: ShelfCle
              config: Config) -> bool:
     """Whether a member's knots (T + 1, 8, at ``times`` s) reached their targets within
     ``POSE_LIMIT`` (``error``, m or rad), keep the judge's joint and speed limits and pass the
-    baseline's dense shelf check."""
-    return (error <= POSE_LIMIT
-            and not plan_limit_violation(Trajectory(np.asarray(times, float), q),
-                                         config.evaluation)
-            and dense_check(clearance, q[:, :7], config.baseline).passed)
+    baseline's dense shelf check (`clearance.judge_feasible`)."""
+    return error <= POSE_LIMIT and judge_feasible(q, times, clearance, config)

@@ -28,12 +28,13 @@ import numpy as np
 from drake_clutter.common.config import Config
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
 from drake_clutter.planners.geometry import ArmGeometry
-from drake_clutter.planners.rearrange.board import Offsets, entered, world_poses
+from drake_clutter.planners.rearrange.board import Offsets, box_distance, entered, world_poses
 from drake_clutter.planners.tool_path import ARM, ApproachFrame, follow_chain
 from drake_clutter.robot import pr2
 
 POSE_LIMIT = 1e-3  # m or rad: an action whose knots miss their G targets by more is refused
 CLOSED = 0.0  # m: the gripper's opening while it pushes
+GAP_REACH = 1.0  # m: the farthest gripper-to-box gap measured before a push
 
 
 @dataclass(frozen=True)
@@ -75,13 +76,6 @@ def contact_point(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z:
     return np.array([p[0], p[1], z])
 
 
-def _gap(geometry: ArmGeometry, q: np.ndarray, poses: dict, box: str) -> float:
-    """The capsule arm's signed distance (m) to ``box`` at ``q``; 1 where farther than 1 m."""
-    found = [c.distance for c in geometry.contacts(q, poses, max_distance=1.0,
-                                                   obstacles="boxes") if c.obstacle == box]
-    return min(found, default=1.0)
-
-
 def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame,
                 q0: np.ndarray, rotation: np.ndarray, before: Offsets, after: Offsets,
                 move: Move, config: Config) -> tuple[np.ndarray | None, str]:
@@ -92,25 +86,26 @@ def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
     p0 = contact_point(geometry, poses, move, float(frame.positions[-1][2]), config)
     reasons = []
     for way in ("direct", "corridor"):
-        q_in, why = _way_in(geometry, frame, q0, rotation, poses, move, p0, way, config)
-        if q_in is not None:
-            path, why = _push_and_out(geometry, frame, q0, q_in, rotation, poses, after, move,
-                                      config)
-        if q_in is not None and path is not None:
-            if dense_check(clearance, path[:, :ARM], config.baseline).passed:
-                return path, ""
-            why = f"the arm meets the shelf ({way} way in)"
-        reasons.append(why)
+        q_in, gap, why = _way_in(geometry, frame, q0, rotation, poses, move, p0, way, config)
+        if q_in is None:
+            reasons.append(why)
+            continue
+        path, why = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move, rotation,
+                                  config)
+        if path is not None and dense_check(clearance, path[:, :ARM], config.baseline).passed:
+            return path, ""
+        reasons.append(why or f"the arm meets the shelf ({way} way in)")
     return None, "; ".join(reasons)
 
 
 def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotation: np.ndarray,
             poses: dict, move: Move, p0: np.ndarray, way: str, config: Config
-            ) -> tuple[np.ndarray | None, str]:
+            ) -> tuple[np.ndarray | None, float, str]:
     """The knots from q0 (excluded) to the pre-contact point ``p0`` (3,): "direct" (out in
     front of the shelf to ``p0``'s side and height, then in along the approach) or
     "corridor" (along the reach's own G path to ``p0``'s depth, then across to it); backed
-    off along -u once where the closed gripper already touches the box there."""
+    off along -u once where the closed gripper already touches the box there. Also the
+    closed gripper's gap to the box at the last knot (m); (None, nan, why) where refused."""
     cfg, dt = config.rearrange, config.baseline.knot_time
     start = frame.positions[0]
     u = np.array([move.u[0], move.u[1], 0.0])
@@ -129,16 +124,15 @@ def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotatio
         q_in, error = follow_chain(geometry, q0, targets, rotation,
                                    np.full(len(targets), CLOSED))
         if error > POSE_LIMIT:
-            return None, f"G misses the {way} way in by {error * 1e3:.1f} mm"
-        gap = _gap(geometry, q_in[-1], poses, move.box)
+            return None, np.nan, f"G misses the {way} way in by {error * 1e3:.1f} mm"
+        gap = box_distance(geometry, q_in[-1], poses, move.box, GAP_REACH)
         if gap >= 0.0:
             break
         p0 = p0 - (cfg.standoff - gap) * u
     else:
-        return None, f"the gripper touches {move.box} before the push ({way} way in)"
-    why = _entries(geometry, q_in, poses, frozenset(move.moved), config,
-                   f"{way} in")
-    return (None, why) if why else (q_in, "")
+        return None, np.nan, f"the gripper touches {move.box} before the push ({way} way in)"
+    why = _entries(geometry, q_in, poses, frozenset(move.moved), config, f"{way} in")
+    return (None, np.nan, why) if why else (q_in, gap, "")
 
 
 def _path_at_speed(points: np.ndarray, speed: float, knot_time: float) -> np.ndarray:
@@ -152,14 +146,15 @@ def _path_at_speed(points: np.ndarray, speed: float, knot_time: float) -> np.nda
 
 
 def _push_and_out(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
-                  q_in: np.ndarray, rotation: np.ndarray, poses: dict, after: Offsets,
-                  move: Move, config: Config) -> tuple[np.ndarray | None, str]:
-    """The whole action from the way in ``q_in``: the push, the retreat, q0 again."""
+                  q_in: np.ndarray, gap: float, poses: dict, after: Offsets, move: Move,
+                  rotation: np.ndarray, config: Config) -> tuple[np.ndarray | None, str]:
+    """The whole action from the way in ``q_in`` (the gripper ``gap`` m from the box at its
+    end): the push, the retreat, q0 again."""
     cfg, dt = config.rearrange, config.baseline.knot_time
     start = frame.positions[0]
     u = np.array([move.u[0], move.u[1], 0.0])
     p0 = geometry.tool_jacobian(q_in[-1])[0].translation()
-    p1 = p0 + (_gap(geometry, q_in[-1], poses, move.box) + move.travel) * u
+    p1 = p0 + (gap + move.travel) * u
     p2 = p1 - cfg.retreat * u
     out = p2 + float((start - p2) @ frame.d) * np.r_[frame.d[:2], 0.0]
     pushing = _segment(p0, p1, cfg.push_speed, dt)

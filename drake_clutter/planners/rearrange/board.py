@@ -108,6 +108,15 @@ def entered(geometry: ArmGeometry, q: np.ndarray, poses: dict[str, RigidTransfor
     return found
 
 
+def box_distance(geometry: ArmGeometry, q: np.ndarray, poses: dict[str, RigidTransform],
+                 box: str, reach: float) -> float:
+    """The capsule arm's signed distance (m) at ``q`` (8,) to ``box`` (boxes at ``poses``);
+    ``reach`` where it is farther than ``reach`` (m)."""
+    found = [c.distance for c in geometry.contacts(q, poses, max_distance=reach,
+                                                   obstacles="boxes") if c.obstacle == box]
+    return min(found, default=reach)
+
+
 def reach_region(reach: np.ndarray, knots: int = 0) -> np.ndarray:
     """The knots (K, 8) whose swept arm is the region to clear: the reach's last ``knots``
     (0: all of them; 1: the pre-grasp pose), the gripper open as at its last knot."""

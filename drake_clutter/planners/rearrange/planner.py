@@ -22,12 +22,13 @@ clears the shelf (`clearance.dense_check`).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from drake_clutter.common.config import Config
 from drake_clutter.planners.budget import Deadline
-from drake_clutter.planners.clearance import dense_check
+from drake_clutter.planners.clearance import judge_feasible
 from drake_clutter.planners.context import PlanningContext
 from drake_clutter.planners.loop import refine_each
 from drake_clutter.planners.phi_judge import PhiVerdict, judge_paths
@@ -36,7 +37,7 @@ from drake_clutter.planners.rearrange.record import PUSH, RearrangeRecord
 from drake_clutter.planners.rearrange.search import State, search_room
 from drake_clutter.planners.tool_path import ARM, approach_frame
 from drake_clutter.scene.scenes import Scene
-from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory, plan_limit_violation
+from drake_clutter.trajectory import Candidate, CandidateStatus, Trajectory
 
 OPENING_KNOTS = 3  # knots over which the gripper opens at q0 before the reach (ours)
 
@@ -69,7 +70,8 @@ def rearrange_candidate(context: PlanningContext, candidate: Candidate, index: i
     timings = {"room": time.perf_counter() - tic}
     record = RearrangeRecord(why="no room", crowd=crowd, search=found.to_data(), push=push)
     plans = {f"room{i}": sequence_path(goal, reach) for i, goal in enumerate(found.goals)}
-    plans = {n: q for n, q in plans.items() if _feasible(context, q, config)}
+    plans = {n: q for n, q in plans.items() if judge_feasible(
+        q, np.arange(len(q)) * config.baseline.knot_time, context.clearance, config)}
     if not plans:
         return _unchanged(candidate, record, deadline, timings)
     tic = time.perf_counter()
@@ -79,9 +81,8 @@ def rearrange_candidate(context: PlanningContext, candidate: Candidate, index: i
         return _unchanged(candidate, record, deadline, timings)
     goal = found.goals[int(chosen.removeprefix("room"))]
     q = plans[chosen]
-    record = RearrangeRecord(chosen, "", crowd, tuple(m.to_data() for m in goal.moves),
-                             record.search, record.verdicts, record.veto,
-                             deadline.record(), push)
+    record = replace(record, moves=tuple(m.to_data() for m in goal.moves),
+                     budget=deadline.record())
     trajectory = Trajectory(np.arange(len(q)) * config.baseline.knot_time, q)
     return Candidate(candidate.alpha, CandidateStatus.OK, "", trajectory, "rearrange",
                      dict(candidate.timings) | timings, record.to_details())
@@ -96,13 +97,6 @@ def sequence_path(goal: State, reach: np.ndarray) -> np.ndarray:
         row[ARM] = goal.paths[-1][-1, ARM] + (k + 1) / OPENING_KNOTS * (
             reach[0, ARM] - goal.paths[-1][-1, ARM])
     return np.vstack([*(p[:-1] for p in goal.paths), np.array(ramp), reach[1:]])
-
-
-def _feasible(context: PlanningContext, q: np.ndarray, config: Config) -> bool:
-    """Whether the plan ``q`` keeps the judge's joint and speed limits and clears the shelf."""
-    times = np.arange(len(q)) * config.baseline.knot_time
-    return (not plan_limit_violation(Trajectory(times, q), config.evaluation)
-            and dense_check(context.clearance, q[:, :ARM], config.baseline).passed)
 
 
 def held_to(paths: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -139,8 +133,7 @@ def _judged(context: PlanningContext, plans: dict[str, np.ndarray], reach: np.nd
                 **{n: _summary(v) for n, v in again.items()}}
         why = "" if wins else ("budget" if len(again) < 2 else "veto")
     chosen = best if not why else PUSH
-    return chosen, RearrangeRecord(chosen, why, record.crowd, (), record.search, summaries, veto,
-                                   deadline.record(), record.push)
+    return chosen, replace(record, chosen=chosen, why=why, verdicts=summaries, veto=veto)
 
 
 def _beats(room: PhiVerdict, push: PhiVerdict, config: Config, margin: bool) -> bool:
@@ -161,8 +154,7 @@ def _summary(verdict: PhiVerdict) -> dict:
 def _unchanged(candidate: Candidate, record: RearrangeRecord, deadline: Deadline,
                timings: dict | None = None) -> Candidate:
     """The push candidate returned as it is, relabelled "rearrange", with ``record``."""
-    record = RearrangeRecord(PUSH, record.why, record.crowd, (), record.search, record.verdicts,
-                             record.veto, deadline.record(), record.push)
+    record = replace(record, chosen=PUSH, moves=(), budget=deadline.record())
     return Candidate(candidate.alpha, candidate.status, candidate.reason, candidate.trajectory,
                      "rearrange", dict(candidate.timings) | (timings or {}),
                      record.to_details())

@@ -28,6 +28,7 @@ from drake_clutter.planners.rearrange.actions import Move, action_path
 from drake_clutter.planners.rearrange.board import (
     Board,
     Offsets,
+    box_distance,
     crowding,
     moved_boxes,
     world_poses,
@@ -89,12 +90,7 @@ def _distances(geometry: ArmGeometry, region: np.ndarray, offsets: Offsets, box:
                reach: float) -> np.ndarray:
     """The region's arm's signed distance (m) to ``box`` at each knot (``reach`` where farther)."""
     poses = world_poses(geometry, offsets)
-    out = np.full(len(region), reach)
-    for k, q in enumerate(region):
-        for c in geometry.contacts(q, poses, max_distance=reach, obstacles="boxes"):
-            if c.obstacle == box:
-                out[k] = min(out[k], c.distance)
-    return out
+    return np.array([box_distance(geometry, q, poses, box, reach) for q in region])
 
 
 def clearing_push(geometry: ArmGeometry, board: Board, region: np.ndarray, offsets: Offsets,

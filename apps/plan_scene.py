@@ -6,16 +6,21 @@
     python apps/plan_scene.py --html out.html         # write a self-contained HTML file instead
     python apps/plan_scene.py --picture out.png --no-browser   # and a picture of the replay
     python apps/plan_scene.py --planner baseline      # one planner only (baseline: seconds)
+    python apps/plan_scene.py --scene dense_rearrange --planner baseline push rearrange \
+        --angles 14 --angle 8                          # three planners, one angle of 14
     python apps/plan_scene.py --planner physics --iterations 30   # the paper's Sec. V (slow)
 
 The baseline (Sec. IV) plans ``--angles`` approach angles; ``--planner both`` (the default)
 also runs the planner compared with it, the push planner (a sampling search over paths that can
 push, scored by the judge in phi, started from the baseline's paths; ``push`` shows only its
 plans). ``--planner physics`` is the paper's Sec. V (iLQR through phi from the baseline's paths;
-``--iterations`` sets its iterations through phi). Every plan is replayed in Bullet (Sec. III)
+``--iterations`` sets its iterations through phi); ``rearrange`` pushes the boxes crowding the
+grasp aside before the push planner's reach. Several names plan and show each (a planner started
+from another reuses its plans); ``--angle I`` plans the I-th angle of the ``--angles`` grid
+alone. Every plan is replayed in Bullet (Sec. III)
 with a recording. A table prints, per angle, each planner's outcome and planning time. Meshcat
-then replays the chosen angle, the plans of both planners side by side (the compared planner on
-the right, the baseline on the left; the boxes move as Bullet moved them, tipped boxes orange,
+then replays the chosen angle, the plans side by side (the last planner named first, on the
+right, the baseline on the left; the boxes move as Bullet moved them, tipped boxes orange,
 fallen red, contact forces as yellow arrows; drake_clutter/viz/replay.py): the angle with the
 best outcome of the compared planner among those both planners made a plan for (ties: the better
 baseline outcome, then the first); with ``--show selected``, each planner's own choice, the
@@ -46,6 +51,7 @@ from drake_clutter.phi.mujoco_model import check_scene
 from drake_clutter.planners.registry import (
     COMPARED,
     PhysicsPlanner,
+    check_planners,
     get_planner,
     planner_names,
     run_planners,
@@ -82,15 +88,26 @@ def _plan(scene, config, names: tuple, angles: int, index: int | None = None) ->
             for name, candidates in plans.items()}
 
 
-def plan_and_evaluate(scene, config, angles: int, planner: str = ALL_PLANNERS,
-                      jobs: int = 1) -> dict:
-    """{planner: (candidates, Bullet outcomes with recordings)} for ``angles`` approach angles,
-    in the order shown (`registry.COMPARED` reversed: the compared planner first, on the
-    right). With
+def shown_planners(planners: list[str]) -> tuple[str, ...]:
+    """The planners named on the command line ("both": `registry.COMPARED`), each once, in the
+    order shown: the last named first (on the right)."""
+    names: list[str] = []
+    for name in planners:
+        for one in COMPARED if name == ALL_PLANNERS else (name,):
+            if one not in names:
+                names.append(one)
+    return tuple(names[::-1])
+
+
+def plan_and_evaluate(scene, config, angles: int, names: tuple[str, ...] = COMPARED[::-1],
+                      jobs: int = 1, only: int | None = None) -> dict:
+    """{planner: (candidates, Bullet outcomes with recordings)} for ``angles`` approach angles
+    (``only``: the angle of that index alone), the planners ``names`` in the order shown. With
     ``jobs`` > 1 the angles are planned in that many processes, each angle alone and phi's
     derivatives serial within it (``dynamics.workers`` 0: the same plans, the line search
     accepts the step a batched one would)."""
-    names = tuple(COMPARED[::-1] if planner == ALL_PLANNERS else (planner,))
+    if only is not None:
+        return _plan(scene, config, names, angles, only)
     if jobs <= 1 or angles <= 1:
         return _plan(scene, config, names, angles)
     serial = dataclasses.replace(
@@ -221,9 +238,9 @@ def _parser() -> argparse.ArgumentParser:
     parser = OneLineParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default=DEFAULT_SCENE,
                         help=f"shipped scene name or YAML file (default: {DEFAULT_SCENE})")
-    parser.add_argument("--planner", choices=(*planner_names(), ALL_PLANNERS),
-                        default=ALL_PLANNERS,
-                        help="which plans to make and show (default: both)")
+    parser.add_argument("--planner", nargs="+", choices=(*planner_names(), ALL_PLANNERS),
+                        default=[ALL_PLANNERS],
+                        help="which plans to make and show, one or more (default: both)")
     parser.add_argument("--html", help="write a self-contained HTML file instead of serving "
                         "(cost curves go next to it)")
     parser.add_argument("--picture", metavar="PNG",
@@ -241,6 +258,8 @@ def _parser() -> argparse.ArgumentParser:
                         help="publish once and exit instead of serving until interrupted")
     parser.add_argument("--angles", type=int, default=2,
                         help="approach angles to plan (default 2; the paper uses 14)")
+    parser.add_argument("--angle", type=int, default=None, metavar="INDEX",
+                        help="plan only this angle of the --angles grid (0-based)")
     parser.add_argument("--iterations", type=int, default=None,
                         help="Sec. V's iLQR iterations through phi per candidate, a third with "
                         "the sphere proxy, for --planner physics (default: the "
@@ -263,7 +282,11 @@ def _check(args) -> None:
     if args.iterations is not None and args.iterations < 0:
         raise InputError("<command line>", "--iterations",
                          f"must be at least 0, got {args.iterations}")
-    if args.iterations is not None and args.planner != PhysicsPlanner.name:
+    if args.angle is not None and not 0 <= args.angle < args.angles:
+        raise InputError("<command line>", "--angle",
+                         f"must be in [0, {args.angles - 1}] (--angles {args.angles}), "
+                         f"got {args.angle}")
+    if args.iterations is not None and PhysicsPlanner.name not in args.planner:
         raise InputError("<command line>", "--iterations",
                          "sets Sec. V's iterations through phi: give it with --planner physics")
     for flag, value in (("--html", args.html), ("--costs", args.costs),
@@ -290,7 +313,9 @@ def main(argv=None) -> int:
         scene = resolve_scene(args.scene)
         if config.dynamics.engine == "mujoco":
             check_scene(scene, args.scene)
-        plans = plan_and_evaluate(scene, config, args.angles, args.planner, args.jobs)
+        names = shown_planners(args.planner)
+        check_planners(config, names, args.config or "<command line>")
+        plans = plan_and_evaluate(scene, config, args.angles, names, args.jobs, args.angle)
         selected = selections(plans, config)
         print(outcome_table(plans, selected))
         costs = args.costs or (str(Path(args.html).parent) if args.html else None)

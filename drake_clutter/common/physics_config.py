@@ -411,9 +411,9 @@ class RearrangeConfig:
     # speed of the tool frame while it pushes, m/s; ours
     push_speed: float = bounded(0.05, gt=0.0, le=1.0)
     # depth the closed gripper and arm may enter a box it is not pushing, m; ours
-    entry_tolerance: float = bounded(0.03, ge=0.0, le=0.1)
+    entry_tolerance: float = bounded(0.045, ge=0.0, le=0.1)
     # depth the closed gripper and arm may enter the target at any time, m; ours
-    target_tolerance: float = bounded(0.003, ge=0.0, le=0.05)
+    target_tolerance: float = bounded(0.008, ge=0.0, le=0.05)
     # sequences that make room on the board judged in phi, the cheapest first, count; ours
     sequences: int = bounded(4, ge=1, le=100)
     # least P(success) in phi's members for a sequence to replace the push answer, unitless; ours

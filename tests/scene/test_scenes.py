@@ -51,7 +51,7 @@ def test_shipped_scenes_load_and_round_trip(name, tmp_path):
 def test_representative_scenes_are_shipped():
     names = set(shipped_scene_names())
     assert {"fig5_large_small", "fig6_push_sideways", "fig7_cascade", "fig8_snaking",
-            "default_bookshelf", "default_fridge"} <= names
+            "default_bookshelf", "default_fridge", "dense_rearrange"} <= names
 
 
 def _error(data, file="bad.yaml") -> SceneError:

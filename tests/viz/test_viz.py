@@ -175,12 +175,30 @@ def test_plan_scene_serves_and_prints_the_meshcat_url():
     (["--angles", "0"], "--angles"),
     (["--html", "/no/such/dir/x.html"], "--html"),
     (["--costs", "/no/such/dir"], "--costs"),
+    (["--angles", "3", "--angle", "3"], "--angle"),
+    (["--iterations", "3", "--planner", "baseline", "push"], "--iterations"),
 ])
 def test_plan_scene_bad_input_is_one_line_and_exit_2(args, field):
     result = _app(*args, timeout=120)
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and field in result.stderr
     assert "Traceback" not in result.stderr
+
+
+@pytest.mark.slow
+def test_plan_scene_shows_the_rearranged_plan_beside_both_others(tmp_path):
+    out = tmp_path / "dense.html"
+    result = _app("--scene", "dense_rearrange", "--planner", "baseline", "push", "rearrange",
+                  "--angles", "14", "--angle", "8", "--html", str(out))
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].split()[:7] == ["alpha", "rearrange", "s", "push", "s", "baseline", "s"]
+    (row,) = [ln for ln in lines if ln.strip().startswith(("+", "-"))]  # one angle
+    kinds = [cell.rstrip("*") for cell in row.split()[1:7:2]]
+    assert kinds[0] == "success" and "success" not in kinds[1:], row
+    paths = static_html_paths(out.read_text())
+    for name in ("rearrange", "push", "baseline"):
+        assert f"/drake/labels/{name}" in paths
 
 
 def test_plan_scene_rejects_an_unknown_planner():

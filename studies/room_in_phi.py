@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections import Counter
 
 import numpy as np
 
@@ -53,8 +54,8 @@ def pushes_only(goal) -> np.ndarray:
 def room_in_members(scene, config, geometry, prefix: np.ndarray, region: np.ndarray,
                     knot_time: float) -> list[dict]:
     """Per member of the judge in phi: whether ``prefix`` leaves the region clear (the boxes
-    where phi left them), the crowd's deepest entry (m), a box fallen or tipped, and how far
-    the target moved (m)."""
+    where phi left them), the crowd's deepest entry (m), the boxes fallen or tipped, and how
+    far the target moved (m)."""
     from pydrake.math import RigidTransform, RotationMatrix
 
     from drake_clutter.planners.members import member_world
@@ -78,6 +79,8 @@ def room_in_members(scene, config, geometry, prefix: np.ndarray, region: np.ndar
         i = names.index(scene.target)
         out.append({"failed": False, "depth": depth, "room": depth <= config.rearrange.deep,
                     "spoiled": bool(fallen.any() or tipped.any()),
+                    "spoilt": [(n, "fallen" if f else "tipped")
+                               for n, f, t in zip(names, fallen, tipped, strict=True) if f or t],
                     "target": float(np.linalg.norm(p[i][:2] - geometry.rest_pose(
                         scene.target).translation()[:2]))})
     return out
@@ -109,7 +112,10 @@ def study_row(row: dict, push_row: dict, config) -> list[dict]:
         members = room_in_members(scene, config, geometry, pushes_only(goal), region,
                                   config.baseline.knot_time)
         verdict = (details.get("verdicts") or {}).get(f"room{i}")
-        out.append({"members": members, "pushes": len(goal.moves),
+        pushed = {m.box for m in goal.moves}
+        shoved = {b for m in goal.moves for b in m.moved} - pushed
+        out.append({"members": members, "pushes": len(goal.moves), "pushed": pushed,
+                    "shoved": shoved, "target": scene.target,
                     "p_phi": None if verdict is None else verdict["p_success"],
                     "chosen": details.get("chosen") == f"room{i}"})
     return out
@@ -134,9 +140,20 @@ def summary(label: str, goals: list[dict], acceptance: float) -> None:
         if ps:
             print(f"  room {'made' if ok else 'not made'}: {len(ps)} judged, whole plan's "
                   f"P(success) in phi mean {np.mean(ps):.2f}, at 0: {sum(p == 0 for p in ps)}")
+    roles = Counter(f"{_role(name, g)} {how}" for g in goals for m in g["members"]
+                    for name, how in m.get("spoilt", []))
+    print(f"  boxes tipped or fallen, by role: {dict(roles)}")
     moved = [m["target"] for g in goals for m in g["members"] if not m.get("failed")]
     print(f"  target moved by the pushes (mm): median {1000 * np.median(moved):.1f}, "
           f"p90 {1000 * np.percentile(moved, 90):.1f}")
+
+
+def _role(name: str, goal: dict) -> str:
+    """What a box was to a goal's pushes: the target, pushed, shoved ahead, or a bystander."""
+    if name == goal["target"]:
+        return "target"
+    return "pushed" if name in goal["pushed"] else "shoved" if name in goal["shoved"] \
+        else "bystander"
 
 
 def main(argv: list[str] | None = None) -> int:

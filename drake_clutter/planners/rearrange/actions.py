@@ -5,9 +5,11 @@ back to the reach's first configuration q0 (outside the shelf), moves the tool f
 pre-grasp's orientation and the gripper closed through:
 
 1. the portal in: G at the pre-contact point's height and side, as far out as q0's G;
-2. the pre-contact point: B's centre at ``push_height`` of its height (not below G's height at
-   the pre-grasp, where the reach clears the board, unless B is lower), backed off along -u by
+2. the pre-contact point: B's centre at ``push_height`` of its height, backed off along -u by
    B's half extent along u and ``standoff`` and by the closed gripper's own gap to B there;
+   with ``push_low`` that height is tried first and G's height at the pre-grasp (where the
+   reach clears the board) next, else only the higher of the two; never above B's top
+   less 1 cm;
 3. the push: along u by that gap plus ``travel``, at ``push_speed``;
 4. the retreat: back along -u by ``retreat``, then out along the approach to the portal;
 5. q0 again, the joints interpolated.
@@ -59,42 +61,48 @@ def _segment(a: np.ndarray, b: np.ndarray, speed: float, knot_time: float) -> np
     return a + np.outer(np.arange(1, knots + 1) / knots, b - a)
 
 
-def contact_point(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z: float,
-                  config: Config) -> np.ndarray:
-    """G's pre-contact point (3,) in W (module docstring, step 2), before the gripper's gap;
-    never lower than ``grasp_z`` (m, G's height at the pre-grasp, where the reach clears the
-    board) unless the box's top is, then 1 cm below its top."""
+def contact_points(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z: float,
+                   config: Config) -> list[np.ndarray]:
+    """G's pre-contact points (3,) in W to try in order (module docstring, step 2), before the
+    gripper's gap: at ``push_height`` of the box's height, then at ``grasp_z`` (m, G's height
+    at the pre-grasp, where the reach clears the board) where that is higher by 1 mm or more;
+    without ``push_low`` only the higher; none above the box's top less 1 cm."""
     box = next(b for b in geometry.scene.boxes if b.name == move.box)
     X = board_poses[move.box]
     u = np.array([move.u[0], move.u[1], 0.0])
     half = np.asarray(box.size) / 2.0
     along = float(np.abs(X.rotation().matrix().T @ u) @ half)
     centre = X.translation()
-    z = max(centre[2] - half[2] + config.rearrange.push_height * box.size[2], grasp_z)
-    z = min(z, centre[2] + half[2] - 0.01)
+    top = centre[2] + half[2] - 0.01
+    low = min(centre[2] - half[2] + config.rearrange.push_height * box.size[2], top)
+    high = min(max(low, grasp_z), top)
+    heights = [low, high] if config.rearrange.push_low and high - low >= 1e-3 else [high]
     p = centre - (along + config.rearrange.standoff) * u
-    return np.array([p[0], p[1], z])
+    return [np.array([p[0], p[1], z]) for z in heights]
 
 
 def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame,
                 q0: np.ndarray, rotation: np.ndarray, before: Offsets, after: Offsets,
                 move: Move, config: Config) -> tuple[np.ndarray | None, str]:
     """The knots (K, 8) of ``move`` from q0 back to q0 (module docstring), the board at
-    ``before`` and ``after`` the move, G at ``rotation`` (3, 3); (None, why) where refused:
-    the reasons of each way in tried. The path clears the shelf (`clearance.dense_check`)."""
+    ``before`` and ``after`` the move, G at ``rotation`` (3, 3), the first that is not refused
+    at the contact heights and ways in in order; (None, why) where refused: the reasons of
+    each tried. The path clears the shelf (`clearance.dense_check`)."""
     poses = world_poses(geometry, before)
-    p0 = contact_point(geometry, poses, move, float(frame.positions[-1][2]), config)
     reasons = []
-    for way in ("direct", "corridor"):
-        q_in, gap, why = _way_in(geometry, frame, q0, rotation, poses, move, p0, way, config)
-        if q_in is None:
-            reasons.append(why)
-            continue
-        path, why = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move, rotation,
-                                  config)
-        if path is not None and dense_check(clearance, path[:, :ARM], config.baseline).passed:
-            return path, ""
-        reasons.append(why or f"the arm meets the shelf ({way} way in)")
+    for p0 in contact_points(geometry, poses, move, float(frame.positions[-1][2]), config):
+        for way in ("direct", "corridor"):
+            q_in, gap, why = _way_in(geometry, frame, q0, rotation, poses, move, p0, way,
+                                     config)
+            if q_in is None:
+                reasons.append(why)
+                continue
+            path, why = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move,
+                                      rotation, config)
+            if path is not None and dense_check(clearance, path[:, :ARM],
+                                                config.baseline).passed:
+                return path, ""
+            reasons.append(why or f"the arm meets the shelf ({way} way in)")
     return None, "; ".join(reasons)
 
 

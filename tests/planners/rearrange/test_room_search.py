@@ -11,8 +11,8 @@ import pytest
 from drake_clutter.common.config import Config, load_config
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.clearance import dense_check
-from drake_clutter.planners.rearrange.actions import CLOSED, Move, action_path
-from drake_clutter.planners.rearrange.board import Board, crowding, reach_region
+from drake_clutter.planners.rearrange.actions import CLOSED, Move, action_path, contact_points
+from drake_clutter.planners.rearrange.board import Board, crowding, reach_region, world_poses
 from drake_clutter.planners.rearrange.search import RoomSearch, State, directions, search_room
 from drake_clutter.planners.tool_path import approach_frame
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
@@ -96,6 +96,26 @@ def test_a_push_that_must_cross_the_target_is_refused_naming_it(context, reach_q
     path, why = action_path(geometry, context.clearance, frame, reach_q[0], rotation, {},
                             after, Move("side", tuple(u), 0.06, ("side",)), Config())
     assert path is None and "target" in why
+
+
+def test_a_push_is_tried_low_on_the_box_first_then_at_the_grasp_height(setting, crowded):
+    geometry = setting[0]
+    poses = world_poses(geometry, {})
+    move = Move("side", (0.0, 1.0), 0.05, ("side",))
+    side = next(b for b in crowded.boxes if b.name == "side")
+    bottom = poses["side"].translation()[2] - side.size[2] / 2
+    low = bottom + Config().rearrange.push_height * side.size[2]
+    low_first = load_config(None, ["rearrange.push_low=true"])
+    first, second = contact_points(geometry, poses, move, bottom + 0.1, low_first)
+    assert first[2] == pytest.approx(low) and second[2] == pytest.approx(bottom + 0.1)
+    np.testing.assert_allclose(first[:2], second[:2])
+    # without push_low (the default) only the higher; never above the top less 1 cm
+    (only,) = contact_points(geometry, poses, move, bottom + 0.1, Config())
+    assert only[2] == pytest.approx(bottom + 0.1)
+    (capped,) = contact_points(geometry, poses, move, bottom + 0.5, Config())
+    assert capped[2] == pytest.approx(bottom + side.size[2] - 0.01)
+    # a grasp height at or below the low point: one height
+    assert len(contact_points(geometry, poses, move, low - 0.02, low_first)) == 1
 
 
 def test_the_settings_are_checked_at_load():

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Do the rearrange planner's pushes make room in phi, or only on the board?
 
-    python studies/room_in_phi.py --db STORE.db [--why "not accepted" rearranged] [--limit N]
+    python studies/room_in_phi.py --db STORE.db [--why "not accepted" rearranged] [--skip N]
+        [--limit N] [--bullet]
 
 For every rearrange row of a store whose record says the search found sequences ("not
 accepted": none was accepted; "rearranged": one was), the search is run again for that angle
@@ -12,6 +13,10 @@ with the boxes where phi left them, the region to clear (`board.reach_region`) i
 room is made in a member when no box other than the target enters it by more than
 ``rearrange.deep``. Also per member: a box fallen or tipped past ``evaluation.max_tilt``, and
 how far the target moved (mm).
+
+With ``--bullet`` each goal's whole plan (the pushes, then the reach) is also replayed by the
+robust judge (K = ``evaluation.robust_replays``): a study of whether phi refuses what Bullet
+would grade well, beside the push answer's stored robust P(success). No planner reads it.
 
 What it decides: where sequences were not accepted although phi's pushes made room, the
 reach from the state they leave is what fails (replanning the pushes from phi's states cannot
@@ -86,13 +91,16 @@ def room_in_members(scene, config, geometry, prefix: np.ndarray, region: np.ndar
     return out
 
 
-def study_row(row: dict, push_row: dict, config) -> list[dict]:
-    """Every goal of the row's search again, with its members' readings and its whole plan's
-    verdict in phi as recorded (None where it was not judged)."""
+def study_row(row: dict, push_row: dict, config, bullet: bool = False) -> list[dict]:
+    """Every goal of the row's search again, with its members' readings, its whole plan's
+    verdict in phi as recorded (None where it was not judged) and, with ``bullet``, its whole
+    plan's robust P(success) in Bullet."""
+    from drake_clutter.evaluation.judge import evaluate
     from drake_clutter.experiments.specs import stored_scene
     from drake_clutter.planners.budget import Deadline
     from drake_clutter.planners.context import PlanningContext
     from drake_clutter.planners.rearrange.board import reach_region
+    from drake_clutter.planners.rearrange.planner import sequence_path
     from drake_clutter.planners.rearrange.search import search_room
     from drake_clutter.planners.tool_path import approach_frame
     from drake_clutter.trajectory import Trajectory
@@ -114,7 +122,13 @@ def study_row(row: dict, push_row: dict, config) -> list[dict]:
         verdict = (details.get("verdicts") or {}).get(f"room{i}")
         pushed = {m.box for m in goal.moves}
         shoved = {b for m in goal.moves for b in m.moved} - pushed
+        judged = None
+        if bullet:
+            q = sequence_path(goal, reach)
+            plan = Trajectory(np.arange(len(q)) * config.baseline.knot_time, q)
+            judged = evaluate(scene, plan, config.evaluation).robust.p_success
         out.append({"members": members, "pushes": len(goal.moves), "pushed": pushed,
+                    "bullet": judged, "push_bullet": push_row["p_success"] or 0.0,
                     "shoved": shoved, "target": scene.target,
                     "p_phi": None if verdict is None else verdict["p_success"],
                     "chosen": details.get("chosen") == f"room{i}"})
@@ -140,6 +154,16 @@ def summary(label: str, goals: list[dict], acceptance: float) -> None:
         if ps:
             print(f"  room {'made' if ok else 'not made'}: {len(ps)} judged, whole plan's "
                   f"P(success) in phi mean {np.mean(ps):.2f}, at 0: {sum(p == 0 for p in ps)}")
+    both = [(g["p_phi"], g["bullet"], g["push_bullet"]) for g in goals
+            if g.get("bullet") is not None and g["p_phi"] is not None]
+    if both:
+        phi, bul, push = (np.array(v) for v in zip(*both, strict=True))
+        print(f"  Bullet, whole plans judged in phi ({len(both)}): robust P(success) mean "
+              f"{bul.mean():.3f} (the push answers {push.mean():.3f}); above the push answer "
+              f"{int(np.sum(bul > push))}, equal {int(np.sum(bul == push))}, below "
+              f"{int(np.sum(bul < push))}; phi 0 and Bullet above 0: "
+              f"{int(np.sum((phi == 0) & (bul > 0)))}; phi above 0 and Bullet 0: "
+              f"{int(np.sum((phi > 0) & (bul == 0)))}")
     roles = Counter(f"{_role(name, g)} {how}" for g in goals for m in g["members"]
                     for name, how in m.get("spoilt", []))
     print(f"  boxes tipped or fallen, by role: {dict(roles)}")
@@ -163,7 +187,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--db", required=True)
     parser.add_argument("--why", nargs="+", default=list(WHYS), choices=WHYS)
+    parser.add_argument("--skip", type=int, default=0, help="rows skipped per outcome first")
     parser.add_argument("--limit", type=int, default=0, help="rows read per outcome (0: all)")
+    parser.add_argument("--bullet", action="store_true",
+                        help="also replay each goal's whole plan in the robust judge")
     args = parser.parse_args(argv)
     try:
         with Store(args.db, read_only=True) as store:
@@ -173,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     for why in args.why:
         todo = rows_to_study(rows, (why,))
-        todo = todo[:args.limit] if args.limit else todo
+        todo = todo[args.skip:args.skip + args.limit] if args.limit else todo[args.skip:]
         goals = []
         for row, push_row in todo:
             try:
@@ -181,12 +208,13 @@ def main(argv: list[str] | None = None) -> int:
             except ConfigError as err:
                 print(f"room_in_phi: --db: {err}", file=sys.stderr)
                 return 2
-            found = study_row(row, push_row, config)
+            found = study_row(row, push_row, config, args.bullet)
             goals += found
             shares = [f"{np.mean([m.get('room', False) for m in g['members']]):.2f}"
                       for g in found]
             print(f"  {row['scene']} angle {row['angle']}: room shares {shares}, phi P "
-                  f"{[g['p_phi'] for g in found]}", flush=True)
+                  f"{[g['p_phi'] for g in found]}, Bullet P {[g['bullet'] for g in found]} "
+                  f"(push answer {push_row['p_success']})", flush=True)
         summary(f"{why} ({len(todo)} rows)", goals,
                 config.rearrange.acceptance if todo else 0.0)
     return 0

@@ -49,10 +49,12 @@ from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.evaluation.outcome import OUTCOME_KINDS
 from drake_clutter.phi.mujoco_model import check_scene
 from drake_clutter.planners.registry import (
+    ALL_PLANNERS,
     COMPARED,
     PhysicsPlanner,
     check_planners,
     get_planner,
+    named_planners,
     planner_names,
     run_planners,
 )
@@ -62,7 +64,6 @@ from drake_clutter.scene.scenes import DEFAULT_SCENE, resolve_scene
 
 # Best first: the order in which an outcome is preferred for the Meshcat replay.
 _RANK = OUTCOME_KINDS
-ALL_PLANNERS = "both"  # --planner: the compared planners (registry.COMPARED)
 
 
 def with_iterations(config, iterations: int | None):
@@ -91,12 +92,7 @@ def _plan(scene, config, names: tuple, angles: int, index: int | None = None) ->
 def shown_planners(planners: list[str]) -> tuple[str, ...]:
     """The planners named on the command line ("both": `registry.COMPARED`), each once, in the
     order shown: the last named first (on the right)."""
-    names: list[str] = []
-    for name in planners:
-        for one in COMPARED if name == ALL_PLANNERS else (name,):
-            if one not in names:
-                names.append(one)
-    return tuple(names[::-1])
+    return named_planners(planners)[::-1]
 
 
 def plan_and_evaluate(scene, config, angles: int, names: tuple[str, ...] = COMPARED[::-1],

@@ -31,8 +31,6 @@ from drake_clutter.common.processes import Terminated, interrupt_on_sigterm
 from drake_clutter.common.typed_yaml import EXIT_USAGE, InputError
 from drake_clutter.scene.generators import GenerationError
 
-ALL_PLANNERS = "both"  # --planner: the compared planners (registry.COMPARED), in that order
-
 
 def _add_config_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", help="YAML file overriding the default configuration")
@@ -153,9 +151,9 @@ def _cmd_plan(args) -> int:
 
     from drake_clutter.common.typed_yaml import to_data
     from drake_clutter.planners.registry import (
-        COMPARED,
         check_planners,
         get_planner,
+        named_planners,
         run_planners,
     )
     from drake_clutter.planners.selection import selected_index
@@ -172,7 +170,7 @@ def _cmd_plan(args) -> int:
             config, baseline=dataclasses.replace(config.baseline, num_angles=args.angles))
     if not Path(args.out).resolve().parent.is_dir():
         raise InputError("<command line>", "--out", f"no such directory for {args.out}")
-    names = COMPARED if args.planner == ALL_PLANNERS else (args.planner,)
+    names = named_planners([args.planner])
     check_planners(config, names, args.config or "<command line>")
     plans = run_planners(scene, config, names)
     candidates = [c for name in names for c in plans[name]]
@@ -295,7 +293,7 @@ def _cmd_config_show(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``drake-clutter``."""
-    from drake_clutter.planners.registry import planner_names
+    from drake_clutter.planners.registry import ALL_PLANNERS, planner_names
     from drake_clutter.robot.pr2 import VARIANTS
 
     parser = OneLineParser(prog="drake-clutter", description=__doc__.splitlines()[0])

@@ -260,6 +260,20 @@ BASELINE = BaselinePlanner.name
 # The planners compared by default ("both" on the command line, the main job, the tiers): the
 # baseline and the planner that beats it (the push planner; the paper's Sec. V is "physics").
 COMPARED = (BASELINE, PushPlanner.name)
+# The command-line name that stands for the `COMPARED` planners, in that order.
+ALL_PLANNERS = "both"
+
+
+def named_planners(names) -> tuple[str, ...]:
+    """The planners ``names`` (an iterable of names) stand for, each once, in the order
+    named; `ALL_PLANNERS` stands for `COMPARED`. Unknown names pass through (`get_planner`
+    rejects them)."""
+    out: list[str] = []
+    for name in names:
+        for one in COMPARED if name == ALL_PLANNERS else (name,):
+            if one not in out:
+                out.append(one)
+    return tuple(out)
 
 
 def planner_names() -> tuple[str, ...]:

@@ -177,3 +177,11 @@ def test_the_push_planners_record_is_what_it_stores():
     assert PushRecord.from_details(failed).start == {"height": 0.07, "start_xyz": [0.5, 0.0, 0.8]}
     for details in (searched, clear, failed):
         assert PushRecord.from_details(details).to_details() == details
+
+
+def test_both_stands_for_the_compared_planners_each_once_in_order():
+    from drake_clutter.planners.registry import ALL_PLANNERS, COMPARED, named_planners
+
+    assert named_planners([ALL_PLANNERS]) == COMPARED
+    assert named_planners(["rearrange", ALL_PLANNERS, "baseline"]) == ("rearrange", *COMPARED)
+    assert named_planners(["push"]) == ("push",)

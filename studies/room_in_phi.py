@@ -59,13 +59,13 @@ def pushes_only(goal) -> np.ndarray:
 def room_in_members(scene, config, geometry, prefix: np.ndarray, region: np.ndarray,
                     knot_time: float) -> list[dict]:
     """Per member of the judge in phi: whether ``prefix`` leaves the region clear (the boxes
-    where phi left them), the crowd's deepest entry (m), the boxes fallen or tipped, and how
-    far the target moved (m)."""
+    where phi left them), the crowd's deepest entry beyond ``rearrange.deep`` (m; 0 with room),
+    the boxes fallen or tipped, and how far the target moved (m)."""
     from pydrake.math import RigidTransform, RotationMatrix
 
     from drake_clutter.planners.members import member_world
     from drake_clutter.planners.phi_judge import box_fates, judged_rollouts
-    from drake_clutter.planners.rearrange.board import entered
+    from drake_clutter.planners.rearrange.board import crowding_at
 
     names = [b.name for b in scene.boxes]
     out = []
@@ -77,13 +77,10 @@ def room_in_members(scene, config, geometry, prefix: np.ndarray, region: np.ndar
             continue
         p, R, fallen, tipped = box_fates(world, geometry, final.final_boxes, config.evaluation)
         poses = {n: RigidTransform(RotationMatrix(R[i]), p[i]) for i, n in enumerate(names)}
-        depth = 0.0
-        for q in region:
-            found = entered(geometry, q, poses, frozenset([scene.target]))
-            depth = max([depth, *found.values()])
+        crowd = crowding_at(geometry, region, poses, config.rearrange.deep)
         i = names.index(scene.target)
-        out.append({"failed": False, "depth": depth, "room": depth <= config.rearrange.deep,
-                    "spoiled": bool(fallen.any() or tipped.any()),
+        out.append({"failed": False, "depth": max(crowd.values(), default=0.0),
+                    "room": not crowd,
                     "spoilt": [(n, "fallen" if f else "tipped")
                                for n, f, t in zip(names, fallen, tipped, strict=True) if f or t],
                     "target": float(np.linalg.norm(p[i][:2] - geometry.rest_pose(
@@ -135,14 +132,19 @@ def study_row(row: dict, push_row: dict, config, bullet: bool = False) -> list[d
     return out
 
 
+def room_share(goal: dict) -> float:
+    """The share of a goal's members in which its pushes made room."""
+    return float(np.mean([m.get("room", False) for m in goal["members"]]))
+
+
 def summary(label: str, goals: list[dict], acceptance: float) -> None:
     """The share of goals whose pushes made room in phi in at least ``acceptance`` of the
     members, and how their whole plans read in phi."""
     if not goals:
         print(f"{label}: no goals")
         return
-    share = [np.mean([m.get("room", False) for m in g["members"]]) for g in goals]
-    spoiled = [np.mean([m.get("spoiled", False) for m in g["members"]]) for g in goals]
+    share = [room_share(g) for g in goals]
+    spoiled = [np.mean([bool(m.get("spoilt")) for m in g["members"]]) for g in goals]
     made = [s >= acceptance for s in share]
     print(f"{label}: {len(goals)} goals; room made in phi in >= {acceptance:.0%} of members: "
           f"{sum(made)} ({np.mean(made):.0%}); mean share of members with room "
@@ -210,8 +212,7 @@ def main(argv: list[str] | None = None) -> int:
                 return 2
             found = study_row(row, push_row, config, args.bullet)
             goals += found
-            shares = [f"{np.mean([m.get('room', False) for m in g['members']]):.2f}"
-                      for g in found]
+            shares = [f"{room_share(g):.2f}" for g in found]
             print(f"  {row['scene']} angle {row['angle']}: room shares {shares}, phi P "
                   f"{[g['p_phi'] for g in found]}, Bullet P {[g['bullet'] for g in found]} "
                   f"(push answer {push_row['p_success']})", flush=True)

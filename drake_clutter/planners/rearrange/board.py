@@ -129,7 +129,12 @@ def crowding(geometry: ArmGeometry, region: np.ndarray, offsets: Offsets, deep: 
              ) -> dict[str, float]:
     """The boxes other than the target that the region's arm (`reach_region`) enters by more
     than ``deep`` (m) with the boxes at ``offsets``: name -> the deepest entry (m)."""
-    poses = world_poses(geometry, offsets)
+    return crowding_at(geometry, region, world_poses(geometry, offsets), deep)
+
+
+def crowding_at(geometry: ArmGeometry, region: np.ndarray, poses: dict[str, RigidTransform],
+                deep: float) -> dict[str, float]:
+    """`crowding` with the boxes at ``poses`` (X_WB of every box, e.g. where phi left them)."""
     target = frozenset([geometry.scene.target])
     deepest: dict[str, float] = {}
     for q in region:

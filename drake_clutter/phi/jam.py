@@ -22,6 +22,7 @@ Frames and units: W, metres, seconds.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -141,7 +142,7 @@ def approach_speeds(contacts: list[Contact], point_velocity) -> dict:
     joint velocities. A contact's speed is read first and `blocked` asked only where it
     would raise the box's answer (the blocked test is the costly part)."""
     out: dict = {}
-    cones, index = None, None
+    cones, index = {}, None
     for c in contacts:
         if c.b != ACTOR or c.a in (None, ACTOR):
             continue
@@ -151,7 +152,6 @@ def approach_speeds(contacts: list[Contact], point_velocity) -> dict:
             continue
         if index is None:
             index = _Index(contacts)
-            cones = index.cones(contacts)
         if blocked(c.a, push, contacts, (c.a,), cones, index):
             out[c.a] = speed
     return out
@@ -167,36 +167,9 @@ class _Index:
             self.by_node.setdefault(c.a, []).append(c)
         self.answers: dict = {}
 
-    def cones(self, contacts: list[Contact]) -> dict:
-        """Every reaction's cone generators by contact id (the contacts not against the
-        actor), computed in bulk (`cone_generators`)."""
-        reactions = [c for c in contacts if c.b != ACTOR]
-        if not reactions:
-            return {}
-        generators = cone_generators(np.array([c.normal for c in reactions]),
-                                     np.array([c.mu for c in reactions]))
-        return {id(c): g for c, g in zip(reactions, generators, strict=True)}
-
 
 _ANGLES = 2 * np.pi * np.arange(CONE_EDGES) / CONE_EDGES
 _COS, _SIN = np.cos(_ANGLES)[:, None], np.sin(_ANGLES)[:, None]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b of two 3-vectors (np.cross's arithmetic, without its overhead)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
-
-
-def _cone_generators(normal: np.ndarray, mu: float) -> np.ndarray:
-    """(CONE_EDGES, 3) unit generators of the pyramid inscribed in the friction cone about
-    ``normal`` with coefficient ``mu``."""
-    helper = np.eye(3)[np.argmin(np.abs(normal))]
-    t1 = _cross(normal, helper)
-    t1 /= np.linalg.norm(t1)
-    t2 = _cross(normal, t1)
-    edges = normal[None, :] + mu * (_COS * t1 + _SIN * t2)
-    return edges / np.linalg.norm(edges, axis=1, keepdims=True)
 
 
 def cone_generators(normals: np.ndarray, mus: np.ndarray) -> np.ndarray:
@@ -243,28 +216,84 @@ def blocked(box, push: np.ndarray, contacts: list[Contact], chain: tuple = (),
     key = (box, np.asarray(push, dtype=float).tobytes(), chain)
     if key in index.answers:
         return index.answers[key]
-    generators, pressed = [], []
+    reactions, pressed = [], []
     for c in index.by_node.get(box, ()):
         if c.b == ACTOR:
             continue
         if c.b is None:
-            generators.extend(_generators(c, cones))
+            reactions.append(c)
         elif c.b not in chain and len(chain) < MAX_CHAIN and float(c.normal @ push) < 0.0:
             pressed.append(c)
-    answer = held(push, generators)
+    answer = _held_by(push, reactions, cones)
     for c in pressed:
         if answer:
             break
         if blocked(c.b, -c.normal, contacts, chain + (c.b,), cones, index):
-            generators.extend(_generators(c, cones))
-            answer = held(push, generators)
+            reactions.append(c)
+            answer = _held_by(push, reactions, cones)
     index.answers[key] = answer
     return answer
 
 
-def _generators(contact: Contact, cones: dict) -> np.ndarray:
-    """The contact's cone generators, from ``cones`` (by id) or computed and kept there."""
-    key = id(contact)
-    if key not in cones:
-        cones[key] = _cone_generators(contact.normal, contact.mu)
-    return cones[key]
+def _held_by(push: np.ndarray, reactions: list[Contact], cones: dict) -> bool:
+    """`held` of a push along ``push`` by the friction cones of the ``reactions``: answered
+    from their normals alone where `outside_cones` proves it is not held, their generators
+    (from ``cones`` by id, the missing ones computed in bulk and kept there) read otherwise."""
+    if not reactions:
+        return False
+    d = -np.asarray(push, dtype=float)
+    if outside_cone_hull(d, [c.normal for c in reactions], [c.mu for c in reactions],
+                         2 * CONE_TOLERANCE):
+        return False
+    if outside_cones(-np.asarray(push, dtype=float), np.array([c.normal for c in reactions]),
+                     np.array([c.mu for c in reactions]), 2 * CONE_TOLERANCE):
+        return False
+    missing = [c for c in reactions if id(c) not in cones]
+    if missing:
+        generators = cone_generators(np.array([c.normal for c in missing]),
+                                     np.array([c.mu for c in missing]))
+        cones.update({id(c): g for c, g in zip(missing, generators, strict=True)})
+    return held(push, [g for c in reactions for g in cones[id(c)]])
+
+
+def outside_cone_hull(direction, normals, mus, margin: float) -> bool:
+    """`outside_cones` in plain floats for a few contacts (no array built): the cones about
+    the unit ``normals`` (3-sequences) all lie in one cone about their mean direction n, of
+    half-angle b = max(angle(n_i, n) + atan(mu_i)); where b < 90 deg and the unit
+    ``direction`` is more than asin(``margin``) beyond it, it is farther than ``margin`` from
+    every combination of them. Where this says no, `outside_cones` may still say yes."""
+    mx, my, mz = (sum(n[k] for n in normals) for k in range(3))
+    size = math.sqrt(mx * mx + my * my + mz * mz)
+    if size < 1e-9:
+        return False
+    mx, my, mz = mx / size, my / size, mz / size
+    half = max(math.acos(min(1.0, max(-1.0, n[0] * mx + n[1] * my + n[2] * mz)))
+               + math.atan(mu) for n, mu in zip(normals, mus, strict=True))
+    if half >= math.pi / 2:
+        return False
+    d = direction
+    angle = math.acos(min(1.0, max(-1.0, d[0] * mx + d[1] * my + d[2] * mz)))
+    return angle - half >= math.asin(margin)
+
+
+_TILTS = np.array([0.05, 0.15, 0.4, 1.0, 2.5, 6.0])  # trial tilts of `outside_cones`' planes
+
+
+def outside_cones(direction: np.ndarray, normals: np.ndarray, mus: np.ndarray,
+                  margin: float) -> bool:
+    """Whether the unit ``direction`` is farther than ``margin`` from every non-negative
+    combination of the friction cones about the unit ``normals`` (n, 3) with coefficients
+    ``mus`` (n,), proved by a plane through the origin: w = n - t d (n the normals' mean
+    direction, d the direction, t a few trial tilts) with every cone on its side (n_i . w >=
+    sin(atan(mu_i)) |w|) and the direction more than ``margin`` beyond it. The pyramids
+    `held` reads are inscribed in these cones, so where this says yes, `held` says no (its
+    residual is at least the distance to the plane); a no proves nothing."""
+    mean = normals.sum(axis=0)
+    size = float(np.sqrt(mean @ mean))
+    if size < 1e-9:
+        return False
+    planes = mean / size - _TILTS[:, None] * direction
+    planes /= np.sqrt((planes * planes).sum(axis=1, keepdims=True))
+    sines = mus / np.sqrt(1.0 + mus * mus)
+    sides = (normals @ planes.T >= sines[:, None]).all(axis=0)
+    return bool(np.any(sides & (planes @ direction <= -margin)))

@@ -43,7 +43,16 @@ import mujoco
 import numpy as np
 
 from drake_clutter.phi.dynamics import ARM_NODE, PhiBase, PhiSpec, cap_box_speeds, reach
-from drake_clutter.phi.jam import ACTOR, MIN_FORCE, Contact, approach_speeds
+from drake_clutter.phi.jam import (
+    ACTOR,
+    CONE_TOLERANCE,
+    MAX_CHAIN,
+    MIN_FORCE,
+    Contact,
+    approach_speeds,
+    outside_cone_hull,
+    outside_cones,
+)
 from drake_clutter.phi.mujoco_model import (
     ModelBox,
     arm_actor,
@@ -149,26 +158,92 @@ def _pushed_boxes(pairs: np.ndarray) -> set[int]:
     return reach(reached, links)
 
 
-def approaches_a_box(model, data, nodes: np.ndarray, v_commanded: np.ndarray) -> bool:
-    """Whether the arm, at the generalized velocity ``v_commanded``, moves into a kept box at
-    one of the data's contacts (its material point's W velocity along the contact normal from
-    the arm into the box above 0): without one, `jam.approach_speeds` reads nothing, and
-    `jam_contacts` need not be built. ``nodes`` maps geometry ids to interaction nodes."""
+def approaching(model, data, nodes: np.ndarray, v_commanded: np.ndarray) -> list[tuple]:
+    """The data's contacts where the arm, at the generalized velocity ``v_commanded``, moves
+    into a kept box (its material point's W velocity along the contact normal from the arm
+    into the box above 0): (contact row, the box's node, that normal) each. Without one,
+    `jam.approach_speeds` reads nothing, and `jam_contacts` need not be built. ``nodes`` maps
+    geometry ids to interaction nodes."""
     n = data.ncon
     if n == 0 or not np.any(v_commanded):
-        return False
+        return []
     pair = nodes[data.contact.geom[:n]]
     first = (pair[:, 0] == ARM_NODE) & (pair[:, 1] > ARM_NODE)
     second = (pair[:, 1] == ARM_NODE) & (pair[:, 0] > ARM_NODE)
     jacobian = np.zeros((3, model.nv))
+    out = []
     for i in np.flatnonzero(first | second):
         arm_geom = data.contact.geom[i, 0 if first[i] else 1]
         push = data.contact.frame[i, :3] * (1.0 if first[i] else -1.0)  # arm into box
         mujoco.mj_jac(model, data, jacobian, None, data.contact.pos[i],
                       int(model.geom_bodyid[arm_geom]))
         if float((jacobian @ v_commanded) @ push) > 0.0:
+            out.append((int(i), int(pair[i, 1] if first[i] else pair[i, 0]), push))
+    return out
+
+
+def pushes_free(model, data, nodes: np.ndarray, pushes: list[tuple]) -> bool:
+    """Whether no box is blocked under the ``pushes`` (`approaching`), proved from the
+    contact normals alone (`_Touching.free`) at each push whose contact carries a force
+    (`MIN_FORCE`). Where this says yes, `jam.approach_speeds` of `jam_contacts` reads no box
+    (the same answer, without building the contacts); a no proves nothing."""
+    magnitude = contact_magnitudes(model, data)
+    acting = np.flatnonzero(magnitude >= MIN_FORCE)
+    touching = _Touching(nodes[data.contact.geom[acting]].tolist(),
+                         data.contact.frame[acting, :3].tolist(),
+                         data.contact.friction[acting, 0].tolist())
+    return all(magnitude[i] < MIN_FORCE or touching.free(box, tuple(push.tolist()), (box,))
+               for i, box, push in pushes)
+
+
+class _Touching:
+    """The contacts that carry a force, by the kept box they touch: [(normal into it,
+    the other side's node, Coulomb coefficient)], the arm's left out; plain floats (a step
+    has a few dozen contacts: arrays would cost more than they save)."""
+
+    def __init__(self, pairs: list, frames: list, mus: list):
+        self.of: dict = {}
+        for (n1, n2), (x, y, z), mu in zip(pairs, frames, mus, strict=True):
+            if n1 == n2 or ARM_NODE in (n1, n2):
+                continue
+            if n2 > ARM_NODE:  # the frame's normal is from geom1 into geom2
+                self.of.setdefault(n2, []).append(((x, y, z), n1, mu))
+            if n1 > ARM_NODE:
+                self.of.setdefault(n1, []).append(((-x, -y, -z), n2, mu))
+        self._answers: dict = {}
+
+    def free(self, node: int, push: tuple, chain: tuple) -> bool:
+        """A proof that the box ``node`` pushed along the unit ``push`` is not `jam.blocked`
+        (the same chain rule): its static contacts' cones cannot hold the push
+        (`jam.outside_cone_hull`, then `jam.outside_cones`), and every kept box it presses
+        against the push (not back along ``chain``, at most `jam.MAX_CHAIN` boxes) is free
+        in turn under the push it passes on."""
+        key = (node, push, chain)
+        if key not in self._answers:
+            self._answers[key] = self._free(node, push, chain)
+        return self._answers[key]
+
+    def _free(self, node: int, push: tuple, chain: tuple) -> bool:
+        touching = self.of.get(node, ())
+        static = [(n, mu) for n, other, mu in touching if other < ARM_NODE]
+        if static and not _outside(push, static):
+            return False
+        if len(chain) >= MAX_CHAIN:
             return True
-    return False
+        return all(other in chain or other < ARM_NODE
+                   or n[0] * push[0] + n[1] * push[1] + n[2] * push[2] >= 0.0
+                   or self.free(other, (-n[0], -n[1], -n[2]), chain + (other,))
+                   for n, other, _ in touching)
+
+
+def _outside(push: tuple, static: list) -> bool:
+    """Whether the static contacts' cones (normal, mu) cannot hold the push (`jam.held`'s
+    no, proved with its margin)."""
+    d = (-push[0], -push[1], -push[2])
+    normals, mus = [n for n, _ in static], [mu for _, mu in static]
+    margin = 2 * CONE_TOLERANCE
+    return outside_cone_hull(d, normals, mus, margin) or outside_cones(
+        np.array(d), np.array(normals), np.array(mus), margin)
 
 
 def commanded_point_velocity(model, data, v_commanded: np.ndarray):
@@ -338,8 +413,9 @@ class MujocoPhi(PhiBase):
         m, d = self.model, self.data
         v = np.zeros(m.nv)
         v[self._arm_v] = v_arm
-        if not approaches_a_box(m, d, self._nodes, v):
-            return  # no contact the jam could read: it adds only positive approach speeds
+        pushes = approaching(m, d, self._nodes, v)
+        if not pushes or pushes_free(m, d, self._nodes, pushes):
+            return  # no blocked box the jam could read: it adds only positive approach speeds
         speeds = approach_speeds(jam_contacts(m, d, self._nodes),
                                  commanded_point_velocity(m, d, v))
         for box, speed in speeds.items():

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from drake_clutter.common.config import ConfigError, DynamicsConfig, load_config
+from drake_clutter.phi import mujoco_phi
 from drake_clutter.phi.colouring import dense_jacobians
 from drake_clutter.phi.derivatives import PhiDynamics
 from drake_clutter.phi.dynamics import (
@@ -26,8 +27,14 @@ from drake_clutter.phi.dynamics import (
     make_spec,
 )
 from drake_clutter.phi.engines import build_phi
+from drake_clutter.phi.jam import Contact, approach_speeds, blocked
 from drake_clutter.phi.mujoco_model import check_scene
-from drake_clutter.phi.mujoco_phi import MujocoPhi, contact_magnitudes
+from drake_clutter.phi.mujoco_phi import (
+    MujocoPhi,
+    commanded_point_velocity,
+    contact_magnitudes,
+    jam_contacts,
+)
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import ARM_DIM, scene_box_states
 from drake_clutter.robot import pr2
@@ -307,3 +314,59 @@ def test_the_resting_shelf_force_is_the_weight_in_both_engines(scene10):
         phi.step_forces(x0, q)
         masses = np.array([scene10.box(n).mass for n in names])
         np.testing.assert_allclose(phi.shelf_forces[1:], GRAVITY * masses, rtol=0.02)
+
+
+def test_pushes_proved_free_are_those_the_full_jam_reading_finds_unblocked(kept, reach10,
+                                                                           monkeypatch):
+    """Along the kept reach, wherever `pushes_free` proves the arm's pushes free, the full
+    reading (`jam.approach_speeds` of `jam_contacts`) finds no blocked box; and it proves
+    most of them (it is what saves the full reading)."""
+    spec, phi, _ = kept
+    checked = {"proved": 0, "asked": 0}
+    original, approaching = mujoco_phi.pushes_free, mujoco_phi.approaching
+
+    def remembering(model, data, nodes, v_commanded):
+        checked["v"] = v_commanded
+        return approaching(model, data, nodes, v_commanded)
+
+    def checking(model, data, nodes, pushes):
+        answer = original(model, data, nodes, pushes)
+        checked["asked"] += 1
+        if answer:
+            checked["proved"] += 1
+            full = approach_speeds(jam_contacts(model, data, nodes),
+                                   commanded_point_velocity(model, data, checked["v"]))
+            assert full == {}
+        return answer
+
+    monkeypatch.setattr(mujoco_phi, "pushes_free", checking)
+    monkeypatch.setattr(mujoco_phi, "approaching", remembering)
+    list(phi.kept_knots(reach10))
+    assert checked["asked"] > 10 and checked["proved"] > checked["asked"] / 2
+
+
+def _pairs(*rows):
+    """(node pairs, frames from geom1 into geom2, mus) of hand-made contacts."""
+    return ([[a, b] for a, b, _ in rows], [list(n) for _, _, n in rows], [0.5] * len(rows))
+
+
+@pytest.mark.parametrize("rows, push, free", [
+    ([(-1, 1, (0, 0, 1))], (1, 0, 0), True),  # box 1 on the board, pushed sideways
+    ([(-1, 1, (0, 0, 1))], (0, 0, -1), False),  # pushed down into the board
+    ([(-1, 1, (0, 0, 1)), (1, -1, (1, 0, 0))], (1, 0, 0), False),  # into a wall ahead
+    ([(-1, 1, (0, 0, 1)), (-1, 2, (0, 0, 1)), (1, 2, (1, 0, 0))], (1, 0, 0), True),  # a chain
+    ([(-1, 1, (0, 0, 1)), (-1, 2, (0, 0, 1)), (1, 2, (1, 0, 0)), (2, -1, (1, 0, 0))],
+     (1, 0, 0), False),  # a chain ending at a wall
+])
+def test_a_push_is_proved_free_only_where_the_blocked_test_says_so(rows, push, free):
+    """`_Touching.free` against `jam.blocked` on the same hand-made contacts (nodes: -1
+    static, 1 and 2 kept boxes; jam's box index is the node - 1)."""
+    pairs, frames, mus = _pairs(*rows)
+    contacts = []
+    for (a, b), n, mu in zip(pairs, frames, mus, strict=True):
+        na, nb = (None if a < 0 else a - 1), (None if b < 0 else b - 1)
+        contacts += [Contact(nb, na, np.array(n, float), np.zeros(3), mu, None),
+                     Contact(na, nb, -np.array(n, float), np.zeros(3), mu, None)]
+    proved = mujoco_phi._Touching(pairs, frames, mus).free(1, tuple(map(float, push)), (1,))
+    assert proved == free
+    assert blocked(0, np.array(push, float), contacts, (0,)) == (not free)

@@ -174,8 +174,8 @@ _COS, _SIN = np.cos(_ANGLES)[:, None], np.sin(_ANGLES)[:, None]
 
 def cone_generators(normals: np.ndarray, mus: np.ndarray) -> np.ndarray:
     """(n, CONE_EDGES, 3) unit generators of the pyramids inscribed in the friction cones
-    about the unit ``normals`` (n, 3) with coefficients ``mus`` (n,): `_cone_generators` for
-    many contacts at once."""
+    about the unit ``normals`` (n, 3) with coefficients ``mus`` (n,), each edge at atan(mu)
+    from its normal, the edges evenly spread about it."""
     normals = np.asarray(normals, dtype=float).reshape(-1, 3)
     helper = np.eye(3)[np.argmin(np.abs(normals), axis=1)]
     t1 = _cross_rows(normals, helper)
@@ -237,16 +237,12 @@ def blocked(box, push: np.ndarray, contacts: list[Contact], chain: tuple = (),
 
 def _held_by(push: np.ndarray, reactions: list[Contact], cones: dict) -> bool:
     """`held` of a push along ``push`` by the friction cones of the ``reactions``: answered
-    from their normals alone where `outside_cones` proves it is not held, their generators
+    from their normals alone where `proved_free` proves it is not held, their generators
     (from ``cones`` by id, the missing ones computed in bulk and kept there) read otherwise."""
     if not reactions:
         return False
-    d = -np.asarray(push, dtype=float)
-    if outside_cone_hull(d, [c.normal for c in reactions], [c.mu for c in reactions],
-                         2 * CONE_TOLERANCE):
-        return False
-    if outside_cones(-np.asarray(push, dtype=float), np.array([c.normal for c in reactions]),
-                     np.array([c.mu for c in reactions]), 2 * CONE_TOLERANCE):
+    if proved_free(-np.asarray(push, dtype=float), [c.normal for c in reactions],
+                   [c.mu for c in reactions]):
         return False
     missing = [c for c in reactions if id(c) not in cones]
     if missing:
@@ -254,6 +250,17 @@ def _held_by(push: np.ndarray, reactions: list[Contact], cones: dict) -> bool:
                                      np.array([c.mu for c in missing]))
         cones.update({id(c): g for c, g in zip(missing, generators, strict=True)})
     return held(push, [g for c in reactions for g in cones[id(c)]])
+
+
+def proved_free(direction, normals, mus) -> bool:
+    """Whether the unit ``direction`` (a push's opposite) is proved outside the friction
+    cones about the unit ``normals`` (3-sequences) with coefficients ``mus``, so that `held`
+    says no: `outside_cone_hull` first (plain floats), then `outside_cones`, each with twice
+    `held`'s tolerance as margin. A no proves nothing."""
+    margin = 2 * CONE_TOLERANCE
+    return outside_cone_hull(direction, normals, mus, margin) or outside_cones(
+        np.asarray(direction, dtype=float), np.asarray(normals, dtype=float).reshape(-1, 3),
+        np.asarray(mus, dtype=float), margin)
 
 
 def outside_cone_hull(direction, normals, mus, margin: float) -> bool:

@@ -45,13 +45,11 @@ import numpy as np
 from drake_clutter.phi.dynamics import ARM_NODE, PhiBase, PhiSpec, cap_box_speeds, reach
 from drake_clutter.phi.jam import (
     ACTOR,
-    CONE_TOLERANCE,
     MAX_CHAIN,
     MIN_FORCE,
     Contact,
     approach_speeds,
-    outside_cone_hull,
-    outside_cones,
+    proved_free,
 )
 from drake_clutter.phi.mujoco_model import (
     ModelBox,
@@ -215,7 +213,7 @@ class _Touching:
     def free(self, node: int, push: tuple, chain: tuple) -> bool:
         """A proof that the box ``node`` pushed along the unit ``push`` is not `jam.blocked`
         (the same chain rule): its static contacts' cones cannot hold the push
-        (`jam.outside_cone_hull`, then `jam.outside_cones`), and every kept box it presses
+        (`jam.proved_free`), and every kept box it presses
         against the push (not back along ``chain``, at most `jam.MAX_CHAIN` boxes) is free
         in turn under the push it passes on."""
         key = (node, push, chain)
@@ -226,7 +224,8 @@ class _Touching:
     def _free(self, node: int, push: tuple, chain: tuple) -> bool:
         touching = self.of.get(node, ())
         static = [(n, mu) for n, other, mu in touching if other < ARM_NODE]
-        if static and not _outside(push, static):
+        if static and not proved_free((-push[0], -push[1], -push[2]), [n for n, _ in static],
+                                      [mu for _, mu in static]):
             return False
         if len(chain) >= MAX_CHAIN:
             return True
@@ -234,16 +233,6 @@ class _Touching:
                    or n[0] * push[0] + n[1] * push[1] + n[2] * push[2] >= 0.0
                    or self.free(other, (-n[0], -n[1], -n[2]), chain + (other,))
                    for n, other, _ in touching)
-
-
-def _outside(push: tuple, static: list) -> bool:
-    """Whether the static contacts' cones (normal, mu) cannot hold the push (`jam.held`'s
-    no, proved with its margin)."""
-    d = (-push[0], -push[1], -push[2])
-    normals, mus = [n for n, _ in static], [mu for _, mu in static]
-    margin = 2 * CONE_TOLERANCE
-    return outside_cone_hull(d, normals, mus, margin) or outside_cones(
-        np.array(d), np.array(normals), np.array(mus), margin)
 
 
 def commanded_point_velocity(model, data, v_commanded: np.ndarray):

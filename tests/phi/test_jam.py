@@ -15,7 +15,9 @@ from drake_clutter.phi.jam import (
     blocked,
     cone_generators,
     held,
+    outside_cone_hull,
     outside_cones,
+    proved_free,
 )
 from drake_clutter.phi.pruning import make_pruned_spec
 from drake_clutter.phi.state import scene_box_states
@@ -80,25 +82,32 @@ def _random_cones(rng, n):
     return normals, rng.uniform(0.02, 1.2, n)
 
 
-def test_outside_cones_never_contradicts_the_least_squares_answer():
-    """Where the plane test proves a direction outside the cones, `held` (non-negative least
-    squares over the pyramids' generators) says not held, on 3000 random sets of 1-6 cones;
-    and it proves it often enough to be worth asking (a box on a board pushed sideways)."""
+def test_the_proofs_never_contradict_the_least_squares_answer():
+    """Where the enclosing-cone test, the plane test or both (`proved_free`) prove a
+    direction outside the cones, `held` (non-negative least squares over the pyramids'
+    generators) says not held, on 3000 random sets of 1-6 cones; each proves often enough to
+    be worth asking, and both prove a sideways push on a board."""
     rng = np.random.default_rng(7)
-    proved = 0
+    proved = {"hull": 0, "planes": 0, "either": 0}
     for _ in range(3000):
         normals, mus = _random_cones(rng, int(rng.integers(1, 7)))
         d = rng.normal(size=3)
         d /= np.linalg.norm(d)
-        if outside_cones(d, normals, mus, 2e-3):
-            proved += 1
+        answers = {"hull": outside_cone_hull(d, normals, mus, 2e-3),
+                   "planes": outside_cones(d, normals, mus, 2e-3),
+                   "either": proved_free(d, normals, mus)}
+        assert answers["either"] == (answers["hull"] or answers["planes"])
+        for name, answer in answers.items():
+            proved[name] += answer
+        if answers["either"]:
             assert not held(-d, list(cone_generators(normals, mus).reshape(-1, 3)))
-    assert proved > 600
+    assert min(proved.values()) > 600
     board = np.array([UP, UP, UP, UP])
     for angle in np.linspace(0.0, 2 * np.pi, 12):
         sideways = np.array([np.cos(angle), np.sin(angle), 0.0])
         assert outside_cones(sideways, board, np.full(4, 0.5), 2e-3)
-    assert not outside_cones(UP, board, np.full(4, 0.5), 2e-3)  # a push down: held
+        assert outside_cone_hull(sideways, board, np.full(4, 0.5), 2e-3)
+    assert not proved_free(UP, board, np.full(4, 0.5))  # a push down: held
 
 
 def test_approach_speeds_reads_only_the_arm_advancing_into_a_blocked_box():

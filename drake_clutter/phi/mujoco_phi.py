@@ -213,9 +213,9 @@ class _Touching:
     def free(self, node: int, push: tuple, chain: tuple) -> bool:
         """A proof that the box ``node`` pushed along the unit ``push`` is not `jam.blocked`
         (the same chain rule): its static contacts' cones cannot hold the push
-        (`jam.proved_free`), and every kept box it presses
-        against the push (not back along ``chain``, at most `jam.MAX_CHAIN` boxes) is free
-        in turn under the push it passes on."""
+        (`jam.proved_free`), and every kept box it presses against the push (not back along
+        ``chain``, at most `jam.MAX_CHAIN` boxes) is free in turn under the push it passes
+        on."""
         key = (node, push, chain)
         if key not in self._answers:
             self._answers[key] = self._free(node, push, chain)

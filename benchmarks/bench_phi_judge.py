@@ -7,6 +7,7 @@ member.
     python benchmarks/bench_phi_judge.py --reference HEAD~3 --inits bookshelf:20:6016:4
     python benchmarks/bench_phi_judge.py --variant "phi_judge.sleep=false" \
         --variant "phi_judge.threads=2"                         # settings side by side
+    python benchmarks/bench_phi_judge.py --variant "dynamics.workers=2"  # members in 2 processes
 
 The paths (fixed, seeded): per initialization (kind:level:seed:angle of the probe tier's
 generator), the baseline's straight paths at the push planner's grasp heights and the search's
@@ -23,6 +24,7 @@ readings whose class differs (``--show`` of them), with both sides' findings (th
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import os
 import pickle
@@ -91,14 +93,40 @@ def judge_saved(paths_file: str, out_file: str, members: int, settings: list[str
     config = judge_config(load_config(None, ["dynamics.workers=0", *settings]), members)
     with open(paths_file, "rb") as f:
         saved = pickle.load(f)
+    pool = worker_pool(config)
     out = {}
-    for item, (scene, paths, times) in saved.items():
-        geometry = PlanningContext(scene, config).arm()
-        tic = time.perf_counter()
-        verdicts = judge_paths(scene, paths, times, config, geometry, complete=False)
-        out[item] = {"seconds": time.perf_counter() - tic,
-                     "verdicts": {n: v.to_data() for n, v in verdicts.items()}}
+    try:
+        for item, (scene, paths, times) in saved.items():
+            geometry = PlanningContext(scene, config).arm()
+            tic = time.perf_counter()
+            verdicts = judge_paths(scene, paths, times, config, geometry, pool=pool,
+                                   complete=False)
+            out[item] = {"seconds": time.perf_counter() - tic,
+                         "verdicts": {n: v.to_data() for n, v in verdicts.items()}}
+    finally:
+        if pool is not None:
+            pool.close()
     Path(out_file).write_text(json.dumps(out))
+
+
+def worker_pool(config):
+    """A started pool of ``dynamics.workers`` processes that roll the members out (as the
+    planner's loop does), ready before the clock starts; None for 0 (members in turn here)."""
+    workers = getattr(config.dynamics, "workers", 0)
+    if workers <= 0:
+        return None
+    from drake_clutter.phi.workers import WorkerPool
+
+    pool = WorkerPool(workers)
+    pool.start()
+    pool.run(_imported, ["drake_clutter.planners.phi_judge"] * (2 * workers))
+    return pool
+
+
+def _imported(module: str) -> bool:
+    """Imports ``module`` (in a worker, before the clock starts)."""
+    importlib.import_module(module)
+    return True
 
 
 def run_side(source: Path, paths_file: str, members: int, settings: list[str]) -> dict:

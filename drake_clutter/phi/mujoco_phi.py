@@ -165,18 +165,24 @@ def approaching(model, data, nodes: np.ndarray, v_commanded: np.ndarray) -> list
     n = data.ncon
     if n == 0 or not np.any(v_commanded):
         return []
-    pair = nodes[data.contact.geom[:n]]
+    contact = data.contact  # read in bulk: each attribute access builds a view
+    geom = contact.geom[:n]
+    pair = nodes[geom]
     first = (pair[:, 0] == ARM_NODE) & (pair[:, 1] > ARM_NODE)
-    second = (pair[:, 1] == ARM_NODE) & (pair[:, 0] > ARM_NODE)
+    rows = np.flatnonzero(first | ((pair[:, 1] == ARM_NODE) & (pair[:, 0] > ARM_NODE)))
+    if rows.size == 0:
+        return []
+    sign = np.where(first[rows], 1.0, -1.0)[:, None]
+    pushes = contact.frame[rows, :3] * sign  # arm into box
+    points = contact.pos[rows]
     jacobian = np.zeros((3, model.nv))
     out = []
-    for i in np.flatnonzero(first | second):
-        arm_geom = data.contact.geom[i, 0 if first[i] else 1]
-        push = data.contact.frame[i, :3] * (1.0 if first[i] else -1.0)  # arm into box
-        mujoco.mj_jac(model, data, jacobian, None, data.contact.pos[i],
-                      int(model.geom_bodyid[arm_geom]))
-        if float((jacobian @ v_commanded) @ push) > 0.0:
-            out.append((int(i), int(pair[i, 1] if first[i] else pair[i, 0]), push))
+    for k, i in enumerate(rows.tolist()):
+        arm_side, box_side = (0, 1) if first[i] else (1, 0)
+        mujoco.mj_jac(model, data, jacobian, None, points[k],
+                      int(model.geom_bodyid[geom[i, arm_side]]))
+        if float((jacobian @ v_commanded) @ pushes[k]) > 0.0:
+            out.append((i, int(pair[i, box_side]), pushes[k]))
     return out
 
 

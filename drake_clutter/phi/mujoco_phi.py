@@ -70,6 +70,15 @@ _RESETS = [int(mujoco.mjtWarning.mjWARN_BADQPOS), int(mujoco.mjtWarning.mjWARN_B
            _BAD_ACCELERATION]
 
 
+def as_slice(index: np.ndarray):
+    """The flat ``index`` (ints) as a slice where it counts up by one from its first entry
+    (a view instead of a gather), else ``index`` itself."""
+    index = np.asarray(index, dtype=int).ravel()
+    if index.size == 0 or not np.array_equal(index, index[0] + np.arange(index.size)):
+        return index
+    return slice(int(index[0]), int(index[0]) + index.size)
+
+
 def rotation_matrices(quat_wxyz: np.ndarray) -> np.ndarray:
     """R (n, 3, 3) of unit quaternion rows (w, x, y, z)."""
     w, x, y, z = np.asarray(quat_wxyz, dtype=float).T
@@ -280,6 +289,8 @@ class MujocoPhi(PhiBase):
         self._box_v = np.array([m.jnt_dofadr[j] + np.arange(6) for j in joints],
                                dtype=int).reshape(-1, 6)
         self._cap_index = self._box_v[:, [3, 4, 5, 0, 1, 2]]  # (w, v) as cap_box_speeds reads
+        self._arm_qs, self._arm_vs = as_slice(self._arm_q), as_slice(self._arm_v)
+        self._box_qs, self._box_vs = as_slice(self._box_q), as_slice(self._box_v)
         self._nodes = np.full(m.ngeom, STATIC, dtype=np.int64)
         self._nodes[[m.geom(g).id for g in actor.geoms]] = ARM_NODE
         for i, name in enumerate(self.layout.box_names):  # the box and its edge spheres
@@ -402,12 +413,11 @@ class MujocoPhi(PhiBase):
 
     # -- the jam measure
 
-    def _jam_approach(self, v_arm: np.ndarray, jam: np.ndarray, steps: int) -> None:
-        """Adds the commanded approach into the boxes blocked at the last step, over ``steps``
-        steps (m), to ``jam``."""
+    def _jam_approach(self, v: np.ndarray, jam: np.ndarray, steps: int) -> None:
+        """Adds the commanded approach (``v``: the generalized velocity, the arm's alone
+        nonzero) into the boxes blocked at the last step, over ``steps`` steps (m), to
+        ``jam``."""
         m, d = self.model, self.data
-        v = np.zeros(m.nv)
-        v[self._arm_v] = v_arm
         pushes = approaching(m, d, self._nodes, v)
         if not pushes or pushes_free(m, d, self._nodes, pushes):
             return  # no blocked box the jam could read: it adds only positive approach speeds
@@ -446,18 +456,40 @@ class MujocoPhi(PhiBase):
         self._warnings = self._reset_warnings()
         d.qpos[self._arm_q] = robot_positions(knots[0])
         d.qvel[self._arm_v] = 0.0
-        self.kept_state = self._read(knots[0])
+        self._kept_at = (np.asarray(knots[0], dtype=float), None)
         edges = self._near_edges() if trace else set()
         for a, b in zip(knots[:-1], knots[1:], strict=True):
             jam = np.zeros(self.layout.num_boxes)
             edges |= self._kept_knot(a, b, jam, trace)
-            self.kept_state = self._read(b)
-            if self._kept_failed(self.kept_state):
+            self._kept_at = (np.asarray(b, dtype=float), None)
+            if self._reset_warnings() > self._warnings or not self._kept_sound():
                 self.failures += 1
                 yield jam * np.nan, edges
                 return
             yield jam, edges
             edges = set()
+
+    @property
+    def kept_state(self) -> np.ndarray:
+        """The kept world's state at the last knot `kept_knots` reached (`_read`, built when
+        first asked for after that knot)."""
+        u, x = self._kept_at
+        if x is None:
+            x = self._read(u)
+            self._kept_at = (u, x)
+        return x
+
+    def _kept_sound(self) -> bool:
+        """Whether `kept_state` is finite (no box `_read` marks diverged), proved from the raw
+        data where every box number is well inside ``divergence_limit`` (a world-frame spin
+        component is at most sqrt(3) times the largest body-frame one), else read."""
+        d, limit = self.data, self.spec.config.divergence_limit
+        q, v = d.qpos[self._box_qs].reshape(-1, 7), d.qvel[self._box_vs]
+        if (np.abs(q).max(initial=0.0) <= limit and np.abs(v).max(initial=0.0) * SQRT3 <= limit
+                and np.all(np.isfinite(self._kept_at[0]))
+                and np.all(np.einsum("ij,ij->i", q[:, 3:], q[:, 3:]) > 0.0)):
+            return True  # (NaN fails every comparison above)
+        return bool(np.all(np.isfinite(self.kept_state)))
 
     def _kept_knot(self, a: np.ndarray, b: np.ndarray, jam: np.ndarray | None,
                    trace: bool) -> set:
@@ -480,19 +512,22 @@ class MujocoPhi(PhiBase):
         to ``jam``) are read and the box speeds capped."""
         m, d, n = self.model, self.data, self.substeps
         v_arm = (q_end - q_start) / self.spec.knot_time
+        v = np.zeros(m.nv)  # the commanded generalized velocity the jam reads
+        v[self._arm_v] = v_arm
+        moving = bool(np.any(v_arm))
         chunk = self.spec.config.mujoco_sample_steps
         edges = set()
         for k in range(0, n, chunk):
             steps = min(chunk, n - k)
-            d.qpos[self._arm_q] = q_start + (q_end - q_start) * (k / n)
-            d.qvel[self._arm_v] = v_arm
+            d.qpos[self._arm_qs] = q_start + (q_end - q_start) * (k / n)
+            d.qvel[self._arm_vs] = v_arm
             mujoco.mj_step(m, d, steps)
             if trace:
                 edges |= self._edges()
             if forces is not None:
                 self._add_forces(*forces, steps)
-            if jam is not None:
-                self._jam_approach(v_arm, jam, steps)
+            if jam is not None and moving:
+                self._jam_approach(v, jam, steps)
             self._cap_speeds()
         return edges
 
@@ -501,8 +536,8 @@ class MujocoPhi(PhiBase):
         a sleeping box would wake it; a sleeping box is never capped)."""
         d = self.data
         config = self.spec.config
-        if np.abs(d.qvel[self._box_v]).max(initial=0.0) * SQRT3 <= min(config.max_box_speed,
-                                                                       config.max_box_spin):
+        if np.abs(d.qvel[self._box_vs]).max(initial=0.0) * SQRT3 <= min(config.max_box_speed,
+                                                                        config.max_box_spin):
             return  # no box near either cap (|v| <= sqrt(3) max |v_i|): nothing to slow
         capped = cap_box_speeds(d.qvel, self._cap_index, config)
         if capped is d.qvel:

@@ -251,6 +251,31 @@ def test_a_mujoco_reset_in_the_kept_world_is_a_recorded_failure(kept, reach10):
     assert phi.failures == before + 1
 
 
+def test_a_diverged_box_in_the_kept_world_is_a_recorded_failure(kept, reach10):
+    """A box past ``divergence_limit`` (finite, no MuJoCo warning) ends the run with NaN
+    jams, as `_read` marks it diverged: the quick soundness proof falls back to the read."""
+    spec, phi, _ = kept
+    before = phi.failures
+    saved = phi.kept
+    phi.kept = copy.copy(saved)
+    phi.kept.qpos[phi._box_q[-1, 0]] = 2.0 * spec.config.divergence_limit
+    try:
+        runs = list(phi.kept_knots(reach10))
+    finally:
+        phi.kept = saved
+    assert len(runs) == 1 and np.all(np.isnan(runs[0][0]))
+    assert phi.failures == before + 1
+
+
+def test_as_slice_reads_the_same_entries_as_the_index():
+    data = np.arange(20.0) * 1.5
+    for index in ([3, 4, 5, 6], [[2, 3, 4], [5, 6, 7]], [1, 3, 4], [5], []):
+        index = np.array(index, dtype=int)
+        got = mujoco_phi.as_slice(index)
+        assert isinstance(got, slice) == (index.size > 0 and index.tolist() != [1, 3, 4])
+        np.testing.assert_array_equal(data[got], data[index.ravel()])
+
+
 @pytest.mark.parametrize("override, field", [
     ("dynamics.engine=bullet", "dynamics.engine"),
     ("dynamics.mujoco_contact_time=0.003", "dynamics.mujoco_contact_time"),

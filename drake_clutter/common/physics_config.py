@@ -283,7 +283,7 @@ class PhiJudgeConfig:
     # MuJoCo time step of the judge's phi (dynamics.mujoco_time_step for it), s; ours
     time_step: float = bounded(0.004, ge=1e-4, le=0.01)
     # MuJoCo steps between the judge's phi readings (its mujoco_sample_steps), count; ours
-    sample_steps: int = bounded(5, ge=1, le=1000)
+    sample_steps: int = bounded(10, ge=1, le=1000)
     # resting boxes sleep in the judge's kept MuJoCo worlds (MuJoCo's islands), flag; ours
     sleep: bool = True
     # phi pruned to the boxes near the paths (false: all kept, resting ones asleep), flag; ours

@@ -323,10 +323,11 @@ def test_threads_roll_out_the_same_verdicts_as_in_turn(scene, baseline_path):
     ["phi_judge.stepping=kept", "phi_judge.sleep=false", "phi_judge.prune=true"],
     ["phi_judge.stepping=kept", "phi_judge.sleep=true", "phi_judge.prune=false",
      "phi_judge.time_step=0.004", "phi_judge.sample_steps=5"],
+    [],  # the defaults: read every 40 ms
 ])
 def test_every_stepping_reads_the_plans_and_repeats_its_verdicts(scene, baseline_path, stepping):
     """The judge's phi knot by knot, in a kept world, and in a kept world of sleeping boxes
-    at a longer step: the pressing path jams in every member, the path kept outside the shelf
+    at a longer step read every 20 ms or (the defaults) every 40 ms: the pressing path jams in every member, the path kept outside the shelf
     fails to grasp, and the same settings give the same findings again, in one thread or
     two."""
     pressing = _pressing_path()

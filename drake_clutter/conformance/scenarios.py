@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from drake_clutter.common.typed_yaml import InputError, from_data, read_yaml_file
+from drake_clutter.scene.mechanics import tip_ratio
 from drake_clutter.scene.scenes import BoxObject, RobotPlacement, Scene, Shelf, Walls
 
 FAMILIES: tuple[str, ...] = ("single", "chain", "edge", "squeeze", "topple", "drag")
@@ -193,11 +194,6 @@ def scenario_scene(scenario: Scenario, coefficients: dict[str, float]) -> Scene:
                             b.mass / (b.size[0] * b.size[1] * b.size[2]), coefficients[b.name])
                   for b in scenario.boxes)
     return Scene(scenario.name, scenario.shelf, RobotPlacement(), boxes[0].name, boxes)
-
-
-def tip_ratio(length: float, push_z: float, mu_board: float, mu_pusher: float) -> float:
-    """mu_b z / ((w / 2)(1 + mu_b mu_p)): above 1 quasi-static mechanics tips the box."""
-    return mu_board * push_z / (length / 2 * (1.0 + mu_board * mu_pusher))
 
 
 def _pusher_behind(box: ScriptedBox, push_z: float, radius: float, length: float,

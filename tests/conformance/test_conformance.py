@@ -22,6 +22,7 @@ from drake_clutter.conformance.friction import (
 from drake_clutter.conformance.outcomes import box_outcomes, realised_friction
 from drake_clutter.conformance.suite import run_cases, simulate, summarise
 from drake_clutter.planners.phi_judge import judge_dynamics
+from drake_clutter.scene.mechanics import tip_ratio
 from drake_clutter.scene.shelf import SHELF_LINK
 
 REPO = Path(__file__).resolve().parents[2]
@@ -62,7 +63,7 @@ def test_the_tip_ratio_is_quasi_static_mechanics():
     case = _single(length=0.08, height=0.22, push_height=0.5, mass=0.2, board_friction=0.3)
     assert case.ratio == pytest.approx(0.3 * 0.11 / (0.04 * 1.15))
     assert case.ratio == pytest.approx(0.717, abs=1e-3) and case.prediction == "slides"
-    assert sc.tip_ratio(0.1, 0.05 * 1.15 / 0.3, 0.3, 0.5) == pytest.approx(1.0)
+    assert tip_ratio(0.1, 0.05 * 1.15 / 0.3, 0.3, 0.5) == pytest.approx(1.0)
 
 
 def test_the_pusher_ramps_up_cruises_and_stops_where_told():

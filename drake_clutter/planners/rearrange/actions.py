@@ -33,6 +33,8 @@ from drake_clutter.planners.geometry import ArmGeometry
 from drake_clutter.planners.rearrange.board import Offsets, box_distance, entered, world_poses
 from drake_clutter.planners.tool_path import ARM, ApproachFrame, follow_chain
 from drake_clutter.robot import pr2
+from drake_clutter.scene.mechanics import G, chain_tip_ratio
+from drake_clutter.scene.shelf import SHELF_FRICTION
 
 POSE_LIMIT = 1e-3  # m or rad: an action whose knots miss their G targets by more is refused
 CLOSED = 0.0  # m: the gripper's opening while it pushes
@@ -42,17 +44,39 @@ GAP_REACH = 1.0  # m: the farthest gripper-to-box gap measured before a push
 @dataclass(frozen=True)
 class Move:
     """One push: ``box`` along ``u`` (2,) by ``travel`` (m); ``moved``: every box it moves on
-    the board (the chain, ``box`` first)."""
+    the board (the chain, ``box`` first); ``tip_ratio``: quasi-static mechanics' tipping
+    ratio of the pushed box (`push_tip_ratio`; above 1 it tips)."""
 
     box: str
     u: tuple[float, float]
     travel: float
     moved: tuple[str, ...]
+    tip_ratio: float = 0.0
 
     def to_data(self) -> dict:
         """JSON-ready dict."""
         return {"box": self.box, "u": list(self.u), "travel": self.travel,
-                "moved": list(self.moved)}
+                "moved": list(self.moved), "tip_ratio": self.tip_ratio}
+
+
+def push_tip_ratio(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z: float,
+                   config: Config) -> float:
+    """`mechanics.chain_tip_ratio` of ``move``'s pushed box (boxes at ``board_poses``, X_WB)
+    pushed at the first pre-contact point `contact_points` tries (G's height), its length
+    along the push, the judge's pair coefficients (`SHELF_FRICTION` x the box's), the boxes
+    it shoves ahead (``move.moved[1:]``) a load of their board friction pressing back at half
+    the lowest of their heights and its own."""
+    boxes = {b.name: b for b in geometry.scene.boxes}
+    box, X = boxes[move.box], board_poses[move.box]
+    u = np.array([move.u[0], move.u[1], 0.0])
+    along = float(np.abs(X.rotation().matrix().T @ u) @ (np.asarray(box.size) / 2.0))
+    bottom = X.translation()[2] - box.size[2] / 2.0
+    z = float(contact_points(geometry, board_poses, move, grasp_z, config)[0][2]) - bottom
+    mu = box.friction * SHELF_FRICTION
+    ahead = [boxes[n] for n in move.moved[1:]]
+    load = sum(b.friction * SHELF_FRICTION * b.mass * G for b in ahead)
+    load_z = min([box.size[2], *(b.size[2] for b in ahead)]) / 2.0
+    return chain_tip_ratio(2.0 * along, z, mu, mu, box.mass, load, load_z)
 
 
 def _segment(a: np.ndarray, b: np.ndarray, speed: float, knot_time: float) -> np.ndarray:

@@ -7,7 +7,9 @@ boxes (each of them: the orderings are searched, not fixed) along each of
 ``rearrange.directions`` horizontal directions (none pointing back toward the robot by more
 than ``pull_limit``) just far enough that it leaves the region, plus ``travel_margin``; the
 boxes it meets are shoved ahead (``chain``). Children are ranked by how many boxes still crowd
-the region, then by the boxes' total travel; the best ``beam_width`` whose push action has a
+the region, then (``rearrange.tipping`` "rank") by their pushes that quasi-static mechanics
+says tip the pushed box (`actions.push_tip_ratio` above 1; "refuse": those pushes are left
+out), then by the boxes' total travel; the best ``beam_width`` whose push action has a
 path (`actions.action_path`: reachable, off the other boxes) are kept per depth, up to
 ``max_moves`` moves. A state with no crowd is a goal; the search stops with ``sequences``
 goals, at the last depth, or when the deadline passes. Deterministic: same scene and reach,
@@ -16,7 +18,7 @@ same goals. Frames: W; metres.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -24,7 +26,7 @@ from drake_clutter.common.config import Config
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.geometry import ArmGeometry
-from drake_clutter.planners.rearrange.actions import Move, action_path
+from drake_clutter.planners.rearrange.actions import Move, action_path, push_tip_ratio
 from drake_clutter.planners.rearrange.board import (
     Board,
     Offsets,
@@ -48,10 +50,21 @@ class State:
     travel: float = 0.0
     crowd: dict[str, float] = field(default_factory=dict)
     previous: Offsets = field(default_factory=dict)
+    tips: int = 0
 
     def key(self) -> tuple[int, float]:
         """Rank among states, best first: fewer boxes crowding, then less travel."""
         return (len(self.crowd), self.travel)
+
+    def tip_key(self) -> tuple[int, int, float]:
+        """`key` with the moves mechanics says tip their box (``tips``) after the crowd."""
+        return (len(self.crowd), self.tips, self.travel)
+
+
+def ranking(config: Config):
+    """The key states are ranked by: `State.tip_key` with ``rearrange.tipping`` "rank", else
+    `State.key`."""
+    return State.tip_key if config.rearrange.tipping == "rank" else State.key
 
 
 @dataclass
@@ -65,12 +78,14 @@ class RoomSearch:
     refused: int = 0
     reasons: list[str] = field(default_factory=list)
     depth: int = 0
+    tipping: int = 0
 
     def to_data(self) -> dict:
-        """JSON-ready summary (the goals' moves, not their paths)."""
+        """JSON-ready summary (the goals' moves, not their paths; ``tipping``: the pushes
+        left out because mechanics says they tip their box)."""
         return {"goals": [[m.to_data() for m in g.moves] for g in self.goals],
                 "expanded": self.expanded, "pushes": self.pushes, "refused": self.refused,
-                "reasons": self.reasons[:5], "depth": self.depth}
+                "reasons": self.reasons[:5], "depth": self.depth, "tipping": self.tipping}
 
 
 def directions(frame: ApproachFrame, count: int, pull_limit: float) -> list[np.ndarray]:
@@ -117,6 +132,8 @@ def children(geometry: ArmGeometry, board: Board, region: np.ndarray, state: Sta
     """Every push of a crowding box of ``state`` that clears it (module docstring), ranked,
     without its path yet."""
     cfg = config.rearrange
+    poses = world_poses(geometry, state.offsets)
+    grasp_z = float(frame.positions[-1][2])
     out = []
     for box in sorted(state.crowd, key=lambda b: (-state.crowd[b], b)):
         for u in directions(frame, cfg.directions, cfg.pull_limit):
@@ -130,9 +147,16 @@ def children(geometry: ArmGeometry, board: Board, region: np.ndarray, state: Sta
                         for k in moved)
             move = Move(box, (float(u[0]), float(u[1])), float(travel),
                         tuple([box] + [k for k in moved if k != box]))
+            move = replace(move, tip_ratio=push_tip_ratio(geometry, poses, move, grasp_z,
+                                                          config))
+            tips = move.tip_ratio > 1.0
+            if tips and cfg.tipping == "refuse":
+                found.tipping += 1
+                continue
             out.append(State(new, state.moves + (move,), state.paths, state.travel + total,
-                             crowding(geometry, region, new, cfg.deep), state.offsets))
-    return sorted(out, key=State.key)
+                             crowding(geometry, region, new, cfg.deep), state.offsets,
+                             state.tips + tips))
+    return sorted(out, key=ranking(config))
 
 
 def _signature(offsets: Offsets) -> tuple:
@@ -161,7 +185,7 @@ def search_room(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
             found.expanded += 1
             candidates += children(geometry, board, region, state, frame, config, found)
         beam = []
-        for child in sorted(candidates, key=State.key):
+        for child in sorted(candidates, key=ranking(config)):
             if len(beam) >= cfg.beam_width or deadline.spend("actions"):
                 break
             signature = _signature(child.offsets)
@@ -175,8 +199,7 @@ def search_room(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
                 found.reasons.append(f"{child.moves[-1].box}: {why}")
                 continue
             seen.add(signature)
-            done = State(child.offsets, child.moves, child.paths + (path,), child.travel,
-                         child.crowd, child.previous)
+            done = replace(child, paths=child.paths + (path,))
             (found.goals if not done.crowd else beam).append(done)
             if len(found.goals) >= cfg.sequences:
                 return found

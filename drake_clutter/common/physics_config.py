@@ -408,8 +408,8 @@ class RearrangeConfig:
     push_height: float = bounded(0.4, gt=0.0, lt=1.0)
     # a push tried at push_height first, below G's pre-grasp height (else never below), flag; ours
     push_low: bool = False
-    # pushes mechanics says tip their box: "off" ignored, "rank" after the rest, "refuse"; ours
-    tipping: Literal["off", "rank", "refuse"] = "off"
+    # pushes mechanics says tip their box: "ignore", "rank" after the rest, "refuse"; ours
+    tipping: Literal["ignore", "rank", "refuse"] = "ignore"
     # speed of the tool frame moving to and from a push, m/s; ours
     tool_speed: float = bounded(0.15, gt=0.0, le=1.0)
     # speed of the tool frame while it pushes, m/s; ours

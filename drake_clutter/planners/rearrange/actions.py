@@ -76,7 +76,7 @@ def push_tip_ratio(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z
     ahead = [boxes[n] for n in move.moved[1:]]
     load = sum(b.friction * SHELF_FRICTION * b.mass * G for b in ahead)
     load_z = min([box.size[2], *(b.size[2] for b in ahead)]) / 2.0
-    return chain_tip_ratio(2.0 * along, z, mu, mu, box.mass, load, load_z)
+    return float(chain_tip_ratio(2.0 * along, z, mu, mu, box.mass, load, load_z))
 
 
 def _segment(a: np.ndarray, b: np.ndarray, speed: float, knot_time: float) -> np.ndarray:

@@ -11,10 +11,19 @@ import pytest
 from drake_clutter.common.config import Config, load_config
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.clearance import dense_check
-from drake_clutter.planners.rearrange.actions import CLOSED, Move, action_path, contact_points
+from drake_clutter.planners.rearrange import search
+from drake_clutter.planners.rearrange.actions import (
+    CLOSED,
+    Move,
+    action_path,
+    contact_points,
+    push_tip_ratio,
+)
 from drake_clutter.planners.rearrange.board import Board, crowding, reach_region, world_poses
 from drake_clutter.planners.rearrange.search import RoomSearch, State, directions, search_room
 from drake_clutter.planners.tool_path import approach_frame
+from drake_clutter.scene.mechanics import tip_ratio
+from drake_clutter.scene.shelf import SHELF_FRICTION
 from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
 
@@ -132,3 +141,49 @@ def test_a_state_ranks_fewer_crowding_boxes_first():
     b = State({}, travel=0.1, crowd={"x": 0.01})
     assert sorted([b, a], key=State.key) == [a, b]
     assert RoomSearch().to_data()["goals"] == []
+
+
+def test_a_push_tips_by_mechanics_where_it_is_high_on_the_box(setting, crowded):
+    """`push_tip_ratio` is the lone box's quasi-static rule at the first contact height (the
+    box's length along the push, the judge's pair coefficients): low on the 6 cm box it
+    slides, at its top it tips; a box shoved ahead, pressing back below the push, tips it
+    sooner."""
+    geometry = setting[0]
+    poses = world_poses(geometry, {})
+    side = next(b for b in crowded.boxes if b.name == "side")
+    bottom = poses["side"].translation()[2] - side.size[2] / 2
+    move = Move("side", (0.0, 1.0), 0.05, ("side",))
+    mu = side.friction * SHELF_FRICTION
+    ratios = []
+    for grasp_z in (bottom + 0.02, bottom + 0.5):
+        (p,) = contact_points(geometry, poses, move, grasp_z, Config())
+        ratios.append(push_tip_ratio(geometry, poses, move, grasp_z, Config()))
+        assert ratios[-1] == pytest.approx(tip_ratio(0.06, p[2] - bottom, mu, mu))
+    assert ratios[0] < 1.0 < ratios[1]
+    chain = Move("side", move.u, 0.05, ("side", crowded.target))
+    assert push_tip_ratio(geometry, poses, chain, bottom + 0.5, Config()) > ratios[1]
+
+
+def test_tipping_pushes_rank_after_the_rest_or_are_left_out(context, reach_q, setting,
+                                                            monkeypatch):
+    geometry, frame, rotation, region = setting
+
+    def run(mode: str) -> RoomSearch:
+        return search_room(geometry, context.clearance, frame, region, reach_q[0], rotation,
+                           load_config(None, [f"rearrange.tipping={mode}"]), Deadline(60.0))
+
+    kept = run("ignore")
+    assert kept.goals and kept.tipping == 0
+    assert all(m.tip_ratio > 0.0 for g in kept.goals for m in g.moves)  # each carries it
+    monkeypatch.setattr(search, "push_tip_ratio", lambda *a: 2.0)  # every push tips
+    def pushes(found: RoomSearch) -> list:
+        return [[(m.box, m.u, m.travel, m.moved) for m in g.moves] for g in found.goals]
+
+    assert pushes(run("ignore")) == pushes(kept)  # "ignore" reads the ratio, acts on none
+    refused = run("refuse")
+    assert refused.goals == [] and refused.tipping == refused.pushes > 0
+    assert refused.to_data()["tipping"] == refused.tipping
+    a = State({}, travel=0.1, crowd={}, tips=1)
+    b = State({}, travel=0.5, crowd={}, tips=0)
+    assert sorted([a, b], key=State.key) == [a, b]
+    assert sorted([a, b], key=State.tip_key) == [b, a]

@@ -45,7 +45,7 @@ GAP_REACH = 1.0  # m: the farthest gripper-to-box gap measured before a push
 class Move:
     """One push: ``box`` along ``u`` (2,) by ``travel`` (m); ``moved``: every box it moves on
     the board (the chain, ``box`` first); ``tip_ratio``: quasi-static mechanics' tipping
-    ratio of the pushed box (`push_tip_ratio`; above 1 it tips)."""
+    ratio of the pushed box (`push_tip_ratio`; above 1 it tips; 0 where not computed)."""
 
     box: str
     u: tuple[float, float]

@@ -235,18 +235,25 @@ def test_the_kept_world_starts_every_run_from_its_settle_and_repeats_its_bits(ke
     assert np.array_equal(end, phi.kept_state)
 
 
+def _runs_from_a_spoiled_world(phi, reach, spoil) -> list:
+    """The kept world's runs through ``reach`` after ``spoil(data)`` edits (a copy of) its
+    settled start, which is restored after."""
+    saved = phi.kept
+    phi.kept = copy.copy(saved)
+    spoil(phi.kept)
+    try:
+        return list(phi.kept_knots(reach))
+    finally:
+        phi.kept = saved
+
+
 def test_a_mujoco_reset_in_the_kept_world_is_a_recorded_failure(kept, reach10):
     """A bad speed makes MuJoCo warn and reset the data: the run yields NaN jams and ends,
     counted in ``failures``, never a silent success from the reset world."""
     spec, phi, _ = kept
     before = phi.failures
-    saved = phi.kept
-    phi.kept = copy.copy(saved)
-    phi.kept.qvel[phi._box_v[0, 0]] = np.nan
-    try:
-        runs = list(phi.kept_knots(reach10))
-    finally:
-        phi.kept = saved
+    runs = _runs_from_a_spoiled_world(
+        phi, reach10, lambda d: d.qvel.__setitem__(phi._box_v[0, 0], np.nan))
     assert len(runs) == 1 and np.all(np.isnan(runs[0][0]))
     assert phi.failures == before + 1
 
@@ -256,13 +263,9 @@ def test_a_diverged_box_in_the_kept_world_is_a_recorded_failure(kept, reach10):
     jams, as `_read` marks it diverged: the quick soundness proof falls back to the read."""
     spec, phi, _ = kept
     before = phi.failures
-    saved = phi.kept
-    phi.kept = copy.copy(saved)
-    phi.kept.qpos[phi._box_q[-1, 0]] = 2.0 * spec.config.divergence_limit
-    try:
-        runs = list(phi.kept_knots(reach10))
-    finally:
-        phi.kept = saved
+    far = 2.0 * spec.config.divergence_limit
+    runs = _runs_from_a_spoiled_world(
+        phi, reach10, lambda d: d.qpos.__setitem__(phi._box_q[-1, 0], far))
     assert len(runs) == 1 and np.all(np.isnan(runs[0][0]))
     assert phi.failures == before + 1
 

@@ -440,8 +440,9 @@ class MujocoPhi(PhiBase):
         for _ in range(knots):
             self._kept_knot(hold, hold, None, False)
         self.kept = copy.copy(self.data)
-        x_settled = self._read(hold)
-        if self._kept_failed(x_settled):
+        self._kept_at = (hold, None)
+        x_settled = self.kept_state.copy()
+        if self._kept_failed():
             x_settled[:] = np.nan
         return x_settled
 
@@ -462,7 +463,7 @@ class MujocoPhi(PhiBase):
             jam = np.zeros(self.layout.num_boxes)
             edges |= self._kept_knot(a, b, jam, trace)
             self._kept_at = (np.asarray(b, dtype=float), None)
-            if self._reset_warnings() > self._warnings or not self._kept_sound():
+            if self._kept_failed():
                 self.failures += 1
                 yield jam * np.nan, edges
                 return
@@ -550,7 +551,8 @@ class MujocoPhi(PhiBase):
         (each time it reset the data)."""
         return sum(int(self.data.warning[w].number) for w in _RESETS)
 
-    def _kept_failed(self, x: np.ndarray) -> bool:
+    def _kept_failed(self) -> bool:
         """Whether the kept world failed since it was loaded: a MuJoCo warning after which it
-        reset the data (`_RESETS`), or a state `_read` marked diverged."""
-        return self._reset_warnings() > self._warnings or not np.all(np.isfinite(x))
+        reset the data (`_RESETS`), or a `kept_state` that `_read` marks diverged
+        (`_kept_sound`)."""
+        return self._reset_warnings() > self._warnings or not self._kept_sound()

@@ -410,6 +410,8 @@ class RearrangeConfig:
     push_low: bool = False
     # pushes mechanics says tip their box: "ignore", "rank" after the rest, "refuse"; ours
     tipping: Literal["ignore", "rank", "refuse"] = "ignore"
+    # a push whose arm another box blocks may push that box out of its way first, flag; ours
+    clear_ways: bool = False
     # speed of the tool frame moving to and from a push, m/s; ours
     tool_speed: float = bounded(0.15, gt=0.0, le=1.0)
     # speed of the tool frame while it pushes, m/s; ours

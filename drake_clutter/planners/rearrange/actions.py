@@ -18,7 +18,10 @@ Knots are ``baseline.knot_time`` apart; G moves at ``tool_speed`` except while i
 joints follow G knot by knot (`tool_path.follow_chain`). The path is refused (None, with the
 reason) where G misses its targets, or the arm enters a box it does not push by more than
 ``entry_tolerance`` on the way in or out (boxes at the board's poses before the move; after
-it on the way out). Frames: W; metres, seconds.
+it on the way out). A refused path names the boxes that blocked it (`Blocked`: a box not
+pushed, entered too deep on the way in, while pushing or on the way out where that box stays
+put) with the knots that entered it, so a search can push that box out of the way first.
+Frames: W; metres, seconds.
 """
 
 from __future__ import annotations
@@ -57,6 +60,16 @@ class Move:
         """JSON-ready dict."""
         return {"box": self.box, "u": list(self.u), "travel": self.travel,
                 "moved": list(self.moved), "tip_ratio": self.tip_ratio}
+
+
+@dataclass(frozen=True)
+class Blocked:
+    """A box other than the target and the pushed ones that a refused action's arm entered
+    by more than ``entry_tolerance``, and the knots (K, 8) of the part of the path (the way
+    in, the push or the way out) that entered it."""
+
+    box: str
+    knots: np.ndarray
 
 
 def push_tip_ratio(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z: float,
@@ -107,37 +120,45 @@ def contact_points(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z
 
 def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame,
                 q0: np.ndarray, rotation: np.ndarray, before: Offsets, after: Offsets,
-                move: Move, config: Config) -> tuple[np.ndarray | None, str]:
+                move: Move, config: Config, blocked: list[Blocked] | None = None
+                ) -> tuple[np.ndarray | None, str]:
     """The knots (K, 8) of ``move`` from q0 back to q0 (module docstring), the board at
     ``before`` and ``after`` the move, G at ``rotation`` (3, 3), the first that is not refused
     at the contact heights and ways in in order; (None, why) where refused: the reasons of
-    each tried. The path clears the shelf (`clearance.dense_check`)."""
+    each tried, and each box that blocked a way appended to ``blocked`` where given. The path
+    clears the shelf (`clearance.dense_check`)."""
     poses = world_poses(geometry, before)
-    reasons = []
+    reasons: list[str] = []
+    found: list[Blocked | None] = []
     for p0 in contact_points(geometry, poses, move, float(frame.positions[-1][2]), config):
         for way in ("direct", "corridor"):
-            q_in, gap, why = _way_in(geometry, frame, q0, rotation, poses, move, p0, way,
-                                     config)
+            q_in, gap, why, by = _way_in(geometry, frame, q0, rotation, poses, move, p0, way,
+                                         config)
             if q_in is None:
                 reasons.append(why)
+                found.append(by)
                 continue
-            path, why = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move,
-                                      rotation, config)
+            path, why, by = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move,
+                                          rotation, config)
             if path is not None and dense_check(clearance, path[:, :ARM],
                                                 config.baseline).passed:
                 return path, ""
             reasons.append(why or f"the arm meets the shelf ({way} way in)")
+            found.append(by)
+    if blocked is not None:
+        blocked += [b for b in found if b is not None]
     return None, "; ".join(reasons)
 
 
 def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotation: np.ndarray,
             poses: dict, move: Move, p0: np.ndarray, way: str, config: Config
-            ) -> tuple[np.ndarray | None, float, str]:
+            ) -> tuple[np.ndarray | None, float, str, Blocked | None]:
     """The knots from q0 (excluded) to the pre-contact point ``p0`` (3,): "direct" (out in
     front of the shelf to ``p0``'s side and height, then in along the approach) or
     "corridor" (along the reach's own G path to ``p0``'s depth, then across to it); backed
     off along -u once where the closed gripper already touches the box there. Also the
-    closed gripper's gap to the box at the last knot (m); (None, nan, why) where refused."""
+    closed gripper's gap to the box at the last knot (m); (None, nan, why, the box that
+    blocked it or None) where refused."""
     cfg, dt = config.rearrange, config.baseline.knot_time
     start = frame.positions[0]
     u = np.array([move.u[0], move.u[1], 0.0])
@@ -156,15 +177,16 @@ def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotatio
         q_in, error = follow_chain(geometry, q0, targets, rotation,
                                    np.full(len(targets), CLOSED))
         if error > POSE_LIMIT:
-            return None, np.nan, f"G misses the {way} way in by {error * 1e3:.1f} mm"
+            return None, np.nan, f"G misses the {way} way in by {error * 1e3:.1f} mm", None
         gap = box_distance(geometry, q_in[-1], poses, move.box, GAP_REACH)
         if gap >= 0.0:
             break
         p0 = p0 - (cfg.standoff - gap) * u
     else:
-        return None, np.nan, f"the gripper touches {move.box} before the push ({way} way in)"
-    why = _entries(geometry, q_in, poses, frozenset(move.moved), config, f"{way} in")
-    return (None, np.nan, why) if why else (q_in, gap, "")
+        return (None, np.nan, f"the gripper touches {move.box} before the push ({way} way in)",
+                None)
+    why, by = _entries(geometry, q_in, poses, frozenset(move.moved), config, f"{way} in")
+    return (None, np.nan, why, by) if why else (q_in, gap, "", None)
 
 
 def _path_at_speed(points: np.ndarray, speed: float, knot_time: float) -> np.ndarray:
@@ -179,9 +201,11 @@ def _path_at_speed(points: np.ndarray, speed: float, knot_time: float) -> np.nda
 
 def _push_and_out(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
                   q_in: np.ndarray, gap: float, poses: dict, after: Offsets, move: Move,
-                  rotation: np.ndarray, config: Config) -> tuple[np.ndarray | None, str]:
+                  rotation: np.ndarray, config: Config
+                  ) -> tuple[np.ndarray | None, str, Blocked | None]:
     """The whole action from the way in ``q_in`` (the gripper ``gap`` m from the box at its
-    end): the push, the retreat, q0 again."""
+    end): the push, the retreat, q0 again; where refused (None, why, the box that blocked it
+    where one did and stays put)."""
     cfg, dt = config.rearrange, config.baseline.knot_time
     start = frame.positions[0]
     u = np.array([move.u[0], move.u[1], 0.0])
@@ -195,29 +219,32 @@ def _push_and_out(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray,
     rest, error = follow_chain(geometry, q_in[-1], np.vstack([pushing, way_out]), rotation,
                                np.full(len(pushing) + len(way_out), CLOSED))
     if error > POSE_LIMIT:
-        return None, f"G misses the push or the way out by {error * 1e3:.1f} mm"
-    why = _entries(geometry, rest[:len(pushing)], poses, frozenset(move.moved),
-                   config, "pushing")
-    why = why or _entries(geometry, rest[len(pushing):], world_poses(geometry, after),
-                          frozenset(), config, "out")
+        return None, f"G misses the push or the way out by {error * 1e3:.1f} mm", None
+    why, by = _entries(geometry, rest[:len(pushing)], poses, frozenset(move.moved),
+                       config, "pushing")
+    if not why:
+        why, by = _entries(geometry, rest[len(pushing):], world_poses(geometry, after),
+                           frozenset(), config, "out")
+        by = None if by is None or by.box in move.moved else by
     if why:
-        return None, why
+        return None, why, by
     path = np.vstack([q0[None], q_in, rest, _home(rest[-1], q0, config)])
     path[0, ARM] = CLOSED
-    return path, ""
+    return path, "", None
 
 
 def _entries(geometry: ArmGeometry, q: np.ndarray, poses: dict, skip: frozenset[str],
-             config: Config, where: str) -> str:
+             config: Config, where: str) -> tuple[str, Blocked | None]:
     """Why the arm at the knots ``q`` enters a box not in ``skip`` by more than
-    ``rearrange.entry_tolerance``, or the target by more than ``target_tolerance`` (m); ''
-    where it does not."""
+    ``rearrange.entry_tolerance``, or the target by more than ``target_tolerance`` (m), and
+    that box with ``q`` where it is not the target; ('', None) where it does not."""
     target, cfg = geometry.scene.target, config.rearrange
     for row in q:
         for name, depth in entered(geometry, row, poses, skip).items():
             if depth > (cfg.target_tolerance if name == target else cfg.entry_tolerance):
-                return f"the arm enters {name} by {depth * 1e3:.0f} mm on the way {where}"
-    return ""
+                why = f"the arm enters {name} by {depth * 1e3:.0f} mm on the way {where}"
+                return why, (None if name == target else Blocked(name, np.array(q)))
+    return "", None
 
 
 def _home(q_from: np.ndarray, q0: np.ndarray, config: Config) -> np.ndarray:

@@ -11,7 +11,11 @@ the region, then (``rearrange.tipping`` "rank") by their pushes that quasi-stati
 says tip the pushed box (`actions.push_tip_ratio` above 1; "refuse": those pushes are left
 out), then by the boxes' total travel; the best ``beam_width`` whose push action has a
 path (`actions.action_path`: reachable, off the other boxes) are kept per depth, up to
-``max_moves`` moves. A state with no crowd is a goal; the search stops with ``sequences``
+``max_moves`` moves. With ``rearrange.clear_ways`` a push refused because its arm enters
+another box (`actions.Blocked`) also proposes a detour: that box pushed out of the refused
+knots' way first (Dogar & Srinivasa's recursion: what blocks an action is cleared before
+it), ranked after the pushes that cleared, so the blocked push can be tried again from it
+at the next depth. A state with no crowd is a goal; the search stops with ``sequences``
 goals, at the last depth, or when the deadline passes. Deterministic: same scene and reach,
 same goals. Frames: W; metres.
 """
@@ -26,7 +30,12 @@ from drake_clutter.common.config import Config
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.clearance import ShelfClearance
 from drake_clutter.planners.geometry import ArmGeometry
-from drake_clutter.planners.rearrange.actions import Move, action_path, push_tip_ratio
+from drake_clutter.planners.rearrange.actions import (
+    Blocked,
+    Move,
+    action_path,
+    push_tip_ratio,
+)
 from drake_clutter.planners.rearrange.board import (
     Board,
     Offsets,
@@ -79,13 +88,16 @@ class RoomSearch:
     reasons: list[str] = field(default_factory=list)
     depth: int = 0
     tipping: int = 0
+    detours: int = 0
 
     def to_data(self) -> dict:
         """JSON-ready summary (the goals' moves, not their paths; ``tipping``: the pushes
-        left out because mechanics says they tip their box)."""
+        left out because mechanics says they tip their box; ``detours``: the pushes of a
+        blocking box proposed)."""
         return {"goals": [[m.to_data() for m in g.moves] for g in self.goals],
                 "expanded": self.expanded, "pushes": self.pushes, "refused": self.refused,
-                "reasons": self.reasons[:5], "depth": self.depth, "tipping": self.tipping}
+                "reasons": self.reasons[:5], "depth": self.depth, "tipping": self.tipping,
+                "detours": self.detours}
 
 
 def directions(frame: ApproachFrame, count: int, pull_limit: float) -> list[np.ndarray]:
@@ -131,32 +143,54 @@ def children(geometry: ArmGeometry, board: Board, region: np.ndarray, state: Sta
              frame: ApproachFrame, config: Config, found: RoomSearch) -> list[State]:
     """Every push of a crowding box of ``state`` that clears it (module docstring), ranked,
     without its path yet."""
+    out = []
+    for box in sorted(state.crowd, key=lambda b: (-state.crowd[b], b)):
+        out += _pushes(geometry, board, region, region, state, box, frame, config, found)
+    return sorted(out, key=ranking(config))
+
+
+def detours(geometry: ArmGeometry, board: Board, region: np.ndarray, state: State,
+            blocked: Blocked, frame: ApproachFrame, config: Config, found: RoomSearch
+            ) -> list[State]:
+    """Every push of ``blocked.box`` from ``state`` that takes it out of the blocked knots'
+    way (entered by at most ``deep``), ranked, without its path yet; the crowd is read on
+    ``region`` as for any push."""
+    out = _pushes(geometry, board, blocked.knots, region, state, blocked.box, frame, config,
+                  found)
+    found.detours += len(out)
+    return sorted(out, key=ranking(config))
+
+
+def _pushes(geometry: ArmGeometry, board: Board, away: np.ndarray, region: np.ndarray,
+            state: State, box: str, frame: ApproachFrame, config: Config, found: RoomSearch
+            ) -> list[State]:
+    """The states after ``box`` is pushed along each direction out of the knots ``away``
+    (`clearing_push`), their crowd read on ``region``; tipping pushes counted and left out
+    under "refuse"."""
     cfg = config.rearrange
     poses = world_poses(geometry, state.offsets)
     grasp_z = float(frame.positions[-1][2])
     out = []
-    for box in sorted(state.crowd, key=lambda b: (-state.crowd[b], b)):
-        for u in directions(frame, cfg.directions, cfg.pull_limit):
-            pushed = clearing_push(geometry, board, region, state.offsets, box, u, config)
-            if pushed is None:
-                continue
-            new, travel = pushed
-            found.pushes += 1
-            moved = moved_boxes(state.offsets, new)
-            total = sum(float(np.linalg.norm(new[k] - state.offsets.get(k, np.zeros(2))))
-                        for k in moved)
-            move = Move(box, (float(u[0]), float(u[1])), float(travel),
-                        tuple([box] + [k for k in moved if k != box]))
-            move = replace(move, tip_ratio=push_tip_ratio(geometry, poses, move, grasp_z,
-                                                          config))
-            tips = move.tip_ratio > 1.0
-            if tips and cfg.tipping == "refuse":
-                found.tipping += 1
-                continue
-            out.append(State(new, state.moves + (move,), state.paths, state.travel + total,
-                             crowding(geometry, region, new, cfg.deep), state.offsets,
-                             state.tips + tips))
-    return sorted(out, key=ranking(config))
+    for u in directions(frame, cfg.directions, cfg.pull_limit):
+        pushed = clearing_push(geometry, board, away, state.offsets, box, u, config)
+        if pushed is None:
+            continue
+        new, travel = pushed
+        found.pushes += 1
+        moved = moved_boxes(state.offsets, new)
+        total = sum(float(np.linalg.norm(new[k] - state.offsets.get(k, np.zeros(2))))
+                    for k in moved)
+        move = Move(box, (float(u[0]), float(u[1])), float(travel),
+                    tuple([box] + [k for k in moved if k != box]))
+        move = replace(move, tip_ratio=push_tip_ratio(geometry, poses, move, grasp_z, config))
+        tips = move.tip_ratio > 1.0
+        if tips and cfg.tipping == "refuse":
+            found.tipping += 1
+            continue
+        out.append(State(new, state.moves + (move,), state.paths, state.travel + total,
+                         crowding(geometry, region, new, cfg.deep), state.offsets,
+                         state.tips + tips))
+    return out
 
 
 def _signature(offsets: Offsets) -> tuple:
@@ -178,31 +212,67 @@ def search_room(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
     seen = {_signature({})}
     for depth in range(1, cfg.max_moves + 1):
         found.depth = depth
-        candidates: list[State] = []
+        candidates: list[tuple[State, State]] = []
         for state in beam:
             if deadline.spend("search"):
                 return found
             found.expanded += 1
-            candidates += children(geometry, board, region, state, frame, config, found)
-        beam = []
-        for child in sorted(candidates, key=ranking(config)):
-            if len(beam) >= cfg.beam_width or deadline.spend("actions"):
-                break
-            signature = _signature(child.offsets)
-            if signature in seen:
-                continue
-            path, why = action_path(geometry, clearance, frame, q0, rotation, child.previous,
-                                    child.offsets,
-                                    child.moves[-1], config)
-            if path is None:
-                found.refused += 1
-                found.reasons.append(f"{child.moves[-1].box}: {why}")
-                continue
-            seen.add(signature)
-            done = replace(child, paths=child.paths + (path,))
-            (found.goals if not done.crowd else beam).append(done)
+            candidates += [(child, state) for child in
+                           children(geometry, board, region, state, frame, config, found)]
+        candidates.sort(key=lambda pair: ranking(config)(pair[0]))
+        beam, blocked = _kept(geometry, clearance, frame, q0, rotation, candidates, seen,
+                              config, deadline, found)
+        if len(found.goals) >= cfg.sequences:
+            return found
+        if cfg.clear_ways and len(beam) < cfg.beam_width and not deadline.spend("detours"):
+            ways = [(child, parent) for parent, b in blocked for child in
+                    detours(geometry, board, region, parent, b, frame, config, found)]
+            ways.sort(key=lambda pair: ranking(config)(pair[0]))
+            more, _ = _kept(geometry, clearance, frame, q0, rotation, ways, seen, config,
+                            deadline, found, cfg.beam_width - len(beam))
+            beam += more
             if len(found.goals) >= cfg.sequences:
                 return found
         if not beam:
             return found
     return found
+
+
+def _kept(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame,
+          q0: np.ndarray, rotation: np.ndarray, candidates: list[tuple[State, State]],
+          seen: set, config: Config, deadline: Deadline, found: RoomSearch,
+          width: int | None = None) -> tuple[list[State], list[tuple[State, Blocked]]]:
+    """The first ``width`` (default ``beam_width``) of the ranked (child, parent) pairs not
+    seen before whose push has a path (the goals among them go to ``found.goals``), and the
+    (parent, blocking box) of each refused push, a box once per parent."""
+    cfg = config.rearrange
+    width = cfg.beam_width if width is None else width
+    beam: list[State] = []
+    blocked: list[tuple[State, Blocked]] = []
+    named: set[tuple[int, str]] = set()
+    for child, parent in candidates:
+        if len(beam) >= width or deadline.spend("actions"):
+            break
+        signature = _signature(child.offsets)
+        if signature in seen:
+            continue
+        by: list[Blocked] = []
+        path, why = action_path(geometry, clearance, frame, q0, rotation, child.previous,
+                                child.offsets, child.moves[-1], config, by)
+        if path is None:
+            found.refused += 1
+            found.reasons.append(f"{child.moves[-1].box}: {why}")
+            for b in by:
+                if (id(parent), b.box) not in named:
+                    named.add((id(parent), b.box))
+                    blocked.append((parent, b))
+            continue
+        seen.add(signature)
+        done = replace(child, paths=child.paths + (path,))
+        if not done.crowd:
+            found.goals.append(done)
+            if len(found.goals) >= cfg.sequences:
+                break
+        else:
+            beam.append(done)
+    return beam, blocked

@@ -19,7 +19,13 @@ from drake_clutter.planners.rearrange.actions import (
     contact_points,
     push_tip_ratio,
 )
-from drake_clutter.planners.rearrange.board import Board, crowding, reach_region, world_poses
+from drake_clutter.planners.rearrange.board import (
+    Board,
+    crowding,
+    entered,
+    reach_region,
+    world_poses,
+)
 from drake_clutter.planners.rearrange.search import RoomSearch, State, directions, search_room
 from drake_clutter.planners.tool_path import approach_frame
 from drake_clutter.scene.mechanics import tip_ratio
@@ -102,9 +108,11 @@ def test_a_push_that_must_cross_the_target_is_refused_naming_it(context, reach_q
     board = Board(crowded, 3)
     u = frame.side[:2]  # the side box away from the target: the gripper would stand in it
     after = board.push({}, "side", 0.06 * u)
+    blocked: list = []
     path, why = action_path(geometry, context.clearance, frame, reach_q[0], rotation, {},
-                            after, Move("side", tuple(u), 0.06, ("side",)), Config())
+                            after, Move("side", tuple(u), 0.06, ("side",)), Config(), blocked)
     assert path is None and "target" in why
+    assert all(b.box != "target" for b in blocked)  # the target is never pushed out of the way
 
 
 def test_a_push_is_tried_low_on_the_box_first_then_at_the_grasp_height(setting, crowded):
@@ -187,3 +195,66 @@ def test_tipping_pushes_rank_after_the_rest_or_are_left_out(context, reach_q, se
     b = State({}, travel=0.5, crowd={}, tips=0)
     assert sorted([a, b], key=State.key) == [a, b]
     assert sorted([a, b], key=State.tip_key) == [b, a]
+
+
+@pytest.fixture(scope="module")
+def blocked_scene(crowded):
+    """The crowded scene with a 6 cm box in front of the side box: it crowds no grasp, but
+    the gripper pushing the side box deeper would stand in it."""
+    from dataclasses import replace
+
+    from drake_clutter.scene.scenes import validate_scene
+    from drake_clutter.testing.handmade import make_box
+
+    target = crowded.target_box
+    front = make_box("front", (0.06, 0.06, 0.12), (target.pose[0] - 0.12, target.pose[1] + 0.09))
+    return validate_scene(replace(crowded, name="blocked", boxes=(*crowded.boxes, front)))
+
+
+@pytest.fixture(scope="module")
+def blocked_setting(blocked_scene):
+    """The baseline's reach at angle 7 (as the shared fixtures') into the blocked scene."""
+    from drake_clutter.planners.context import PlanningContext
+    from drake_clutter.planners.registry import run_planners
+
+    (reach,) = run_planners(blocked_scene, Config(), ["baseline"], angles=[7])["baseline"]
+    assert reach.ok, reach.reason
+    q = np.asarray(reach.trajectory.q, float)
+    context = PlanningContext(blocked_scene, Config())
+    geometry = context.arm()
+    return (context, geometry, approach_frame(geometry, q),
+            geometry.tool_jacobian(q[-1])[0].rotation().matrix(), reach_region(q, 1), q)
+
+
+def test_a_push_refused_by_another_box_names_it_with_the_knots_that_entered_it(
+        blocked_setting):
+    context, geometry, frame, rotation, region, q = blocked_setting
+    assert set(crowding(geometry, region, {}, Config().rearrange.deep)) == {"side"}
+    u = frame.d[:2] / np.linalg.norm(frame.d[:2])  # the side box pushed deeper
+    after = Board(context.scene, 3).push({}, "side", 0.07 * u)
+    blocked: list = []
+    path, why = action_path(geometry, context.clearance, frame, q[0], rotation, {}, after,
+                            Move("side", tuple(u), 0.07, ("side",)), Config(), blocked)
+    assert path is None and "front" in why
+    fronts = [b for b in blocked if b.box == "front"]
+    assert fronts and all(b.knots.ndim == 2 and b.knots.shape[1] == 8 for b in fronts)
+    poses = world_poses(geometry, {})
+    deepest = max(entered(geometry, k, poses).get("front", 0.0) for k in fronts[0].knots)
+    assert deepest > Config().rearrange.entry_tolerance
+
+
+def test_clear_ways_pushes_the_blocking_box_out_of_the_way_first(blocked_setting):
+    context, geometry, frame, rotation, region, q = blocked_setting
+    args = (geometry, context.clearance, frame, region, q[0], rotation)
+    plain = search_room(*args, Config(), Deadline(60.0))
+    assert plain.goals == [] and plain.detours == 0  # every push of the side box is refused
+    ways = load_config(None, ["rearrange.clear_ways=true"])
+    found = search_room(*args, ways, Deadline(60.0))
+    assert found.goals and found.detours > 0
+    for goal in found.goals:
+        assert [m.box for m in goal.moves] == ["front", "side"]
+        assert crowding(geometry, region, goal.offsets, ways.rearrange.deep) == {}
+        assert len(goal.paths) == 2 and all(p is not None for p in goal.paths)
+    again = search_room(*args, ways, Deadline(60.0))
+    assert [[m.to_data() for m in g.moves] for g in again.goals] == [
+        [m.to_data() for m in g.moves] for g in found.goals]

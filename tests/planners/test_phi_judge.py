@@ -327,9 +327,9 @@ def test_threads_roll_out_the_same_verdicts_as_in_turn(scene, baseline_path):
 ])
 def test_every_stepping_reads_the_plans_and_repeats_its_verdicts(scene, baseline_path, stepping):
     """The judge's phi knot by knot, in a kept world, and in a kept world of sleeping boxes
-    at a longer step read every 20 ms or (the defaults) every 40 ms: the pressing path jams in every member, the path kept outside the shelf
-    fails to grasp, and the same settings give the same findings again, in one thread or
-    two."""
+    at a longer step read every 20 ms or (the defaults) every 40 ms: the pressing path jams
+    in every member, the path kept outside the shelf fails to grasp, and the same settings
+    give the same findings again, in one thread or two."""
     pressing = _pressing_path()
     paths = {"pressing": pressing, "outside": np.repeat(pressing[:1], len(pressing), axis=0),
              "baseline": baseline_path}

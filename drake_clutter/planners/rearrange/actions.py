@@ -129,14 +129,14 @@ def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
     clears the shelf (`clearance.dense_check`)."""
     poses = world_poses(geometry, before)
     reasons: list[str] = []
-    found: list[Blocked | None] = []
+    found: list[Blocked] = []
     for p0 in contact_points(geometry, poses, move, float(frame.positions[-1][2]), config):
         for way in ("direct", "corridor"):
             q_in, gap, why, by = _way_in(geometry, frame, q0, rotation, poses, move, p0, way,
                                          config)
             if q_in is None:
                 reasons.append(why)
-                found.append(by)
+                found += [by] if by is not None else []
                 continue
             path, why, by = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move,
                                           rotation, config)
@@ -144,9 +144,9 @@ def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
                                                 config.baseline).passed:
                 return path, ""
             reasons.append(why or f"the arm meets the shelf ({way} way in)")
-            found.append(by)
+            found += [by] if by is not None else []
     if blocked is not None:
-        blocked += [b for b in found if b is not None]
+        blocked += found
     return None, "; ".join(reasons)
 
 

@@ -244,7 +244,8 @@ def _kept(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame
           width: int | None = None) -> tuple[list[State], list[tuple[State, Blocked]]]:
     """The first ``width`` (default ``beam_width``) of the ranked (child, parent) pairs not
     seen before whose push has a path (the goals among them go to ``found.goals``), and the
-    (parent, blocking box) of each refused push, a box once per parent."""
+    (parent, blocking box) of each refused push, a box once per parent (with
+    ``rearrange.clear_ways`` only)."""
     cfg = config.rearrange
     width = cfg.beam_width if width is None else width
     beam: list[State] = []
@@ -258,7 +259,8 @@ def _kept(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame
             continue
         by: list[Blocked] = []
         path, why = action_path(geometry, clearance, frame, q0, rotation, child.previous,
-                                child.offsets, child.moves[-1], config, by)
+                                child.offsets, child.moves[-1], config,
+                                by if cfg.clear_ways else None)
         if path is None:
             found.refused += 1
             found.reasons.append(f"{child.moves[-1].box}: {why}")

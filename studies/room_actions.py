@@ -12,9 +12,11 @@ search (`rearrange.search.search_room`, the configuration's ``rearrange`` settin
 sequences of pushes after which it is clear, each push with a joint path that reaches its
 contact pose off the other boxes and the shelf. Printed: one line per initialization, then the
 initializations crowded, those with a sequence found, the board's pushes and how many the
-action paths refused, and the refusals by cause (the last way in tried: the arm enters a box
-that itself crowds the region, another box, the target; the shelf; the gripper already
-touching the box; G missing its targets).
+action paths refused, the goals' moves and those quasi-static mechanics says tip their box
+(`actions.push_tip_ratio` above 1), and the refusals by cause (the last way in tried: the
+arm enters a box that itself crowds the region, another box, the target; the shelf; the
+gripper already touching the box; G missing its targets; the path leaving the judge's
+limits).
 
 Its dated results: docs/log/rearrange.md.
 """
@@ -51,10 +53,10 @@ def cause(reason: str, crowd: set[str]) -> str:
         box = found.group(1)
         return ("enters the target" if box == "target" else
                 "enters a crowding box" if box in crowd else "enters another box")
-    for key in ("shelf", "touches", "misses"):
+    for key in ("shelf", "touches", "misses", "limits"):
         if key in last:
             return {"shelf": "meets the shelf", "touches": "touches the box first",
-                    "misses": "G misses its targets"}[key]
+                    "misses": "G misses its targets", "limits": "leaves the limits"}[key]
     return last
 
 
@@ -78,7 +80,9 @@ def initialization(scene, index: int, config, seconds: float) -> dict:
     return {"status": "room" if found.goals else "no room", "crowd": len(crowd),
             "goals": [len(g.moves) for g in found.goals], "pushes": found.pushes,
             "refused": found.refused, "seconds": time.perf_counter() - tic,
-            "causes": Counter(cause(r, set(crowd)) for r in found.reasons)}
+            "causes": Counter(cause(r, set(crowd)) for r in found.reasons),
+            "moves": sum(len(g.moves) for g in found.goals),
+            "tipping": sum(m.tip_ratio > 1.0 for g in found.goals for m in g.moves)}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -123,6 +127,9 @@ def summary(results: list[dict]) -> None:
               f"{sum(r['status'] == 'room' for r in crowded)} | "
               f"{sum(r['pushes'] for r in crowded)} | {sum(r['refused'] for r in crowded)} | "
               f"{np.median([r['seconds'] for r in crowded]) if crowded else 0:.1f} |")
+    moves = sum(r.get("moves", 0) for r in results)
+    print(f"goals' moves: {moves}, mechanics says {sum(r.get('tipping', 0) for r in results)} "
+          "of them tip the pushed box")
     causes = sum((r["causes"] for r in results if "causes" in r), Counter())
     print("refusals by cause:", ", ".join(f"{k} {v}" for k, v in causes.most_common()))
 

@@ -408,6 +408,10 @@ class RearrangeConfig:
     push_height: float = bounded(0.4, gt=0.0, lt=1.0)
     # a push tried at push_height first, below G's pre-grasp height (else never below), flag; ours
     push_low: bool = False
+    # downward tilt of the closed gripper's axis from the pre-grasp's while it pushes, rad; ours
+    push_pitch: float = bounded(0.0, ge=0.0, le=1.2)
+    # angular speed of G turning to and from push_pitch in front of the shelf, rad/s; ours
+    turn_speed: float = bounded(1.0, gt=0.0, le=3.0)
     # pushes mechanics says tip their box: "ignore", "rank" after the rest, "refuse"; ours
     tipping: Literal["ignore", "rank", "refuse"] = "ignore"
     # a push whose arm another box blocks may push that box out of its way first, flag; ours

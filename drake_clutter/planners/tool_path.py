@@ -85,15 +85,17 @@ def follow_targets(geometry: ArmGeometry, seeds: np.ndarray, targets: np.ndarray
 def follow_chain(geometry: ArmGeometry, seed: np.ndarray, targets: np.ndarray,
                  rotation: np.ndarray, opening: np.ndarray) -> tuple[np.ndarray, float]:
     """Arm configurations (K, 8) that put G at ``targets`` (K, 3, W) with the one ``rotation``
-    (3, 3), knot k solved from knot k - 1's answer (knot 0 from ``seed`` (8,)), so that the
-    arm moves continuously; column 7 is ``opening`` (K,) (m). Also the largest remaining pose
-    error (m or rad)."""
+    (3, 3) or each knot's (K, 3, 3), knot k solved from knot k - 1's answer (knot 0 from
+    ``seed`` (8,)), so that the arm moves continuously; column 7 is ``opening`` (K,) (m). Also
+    the largest remaining pose error (m or rad)."""
     out = np.empty((len(targets), len(seed)))
+    rotations = np.broadcast_to(rotation, (len(targets), 3, 3))
     worst, previous = 0.0, np.asarray(seed, float)
     for k in range(len(targets)):
         row = previous.copy()
         row[ARM] = opening[k]
-        solved, error = follow_targets(geometry, row[None], targets[k:k + 1], rotation[None])
+        solved, error = follow_targets(geometry, row[None], targets[k:k + 1],
+                                       rotations[k:k + 1])
         out[k], previous = solved[0], solved[0]
         worst = max(worst, error)
     return out, worst

@@ -2,7 +2,8 @@
 
 A move pushes box B along a horizontal unit direction u by ``travel`` (m). Its path, from and
 back to the reach's first configuration q0 (outside the shelf), moves the tool frame G with the
-pre-grasp's orientation and the gripper closed through:
+pre-grasp's orientation (its axis tipped down by ``push_pitch``, turned to in place at q0's G
+at ``turn_speed``) and the gripper closed through:
 
 1. the portal in: G at the pre-contact point's height and side, as far out as q0's G;
 2. the pre-contact point: B's centre at ``push_height`` of its height, backed off along -u by
@@ -16,7 +17,8 @@ pre-grasp's orientation and the gripper closed through:
 
 Knots are ``baseline.knot_time`` apart; G moves at ``tool_speed`` except while it pushes. The
 joints follow G knot by knot (`tool_path.follow_chain`). The path is refused (None, with the
-reason) where G misses its targets, or the arm enters a box it does not push by more than
+reason) where G misses its targets, the knots leave the judge's joint or speed limits, or the
+arm enters a box it does not push by more than
 ``entry_tolerance`` on the way in or out (boxes at the board's poses before the move; after
 it on the way out). A refused path names the boxes that blocked it (`Blocked`: a box not
 pushed, entered too deep on the way in, while pushing or on the way out where that box stays
@@ -29,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
 
 from drake_clutter.common.config import Config
 from drake_clutter.planners.clearance import ShelfClearance, dense_check
@@ -38,6 +41,7 @@ from drake_clutter.planners.tool_path import ARM, ApproachFrame, follow_chain
 from drake_clutter.robot import pr2
 from drake_clutter.scene.mechanics import G, chain_tip_ratio
 from drake_clutter.scene.shelf import SHELF_FRICTION
+from drake_clutter.trajectory import Trajectory, plan_limit_violation
 
 POSE_LIMIT = 1e-3  # m or rad: an action whose knots miss their G targets by more is refused
 CLOSED = 0.0  # m: the gripper's opening while it pushes
@@ -118,30 +122,55 @@ def contact_points(geometry: ArmGeometry, board_poses: dict, move: Move, grasp_z
     return [np.array([p[0], p[1], z]) for z in heights]
 
 
+def push_rotation(rotation: np.ndarray, pitch: float) -> np.ndarray:
+    """G's rotation (3, 3, W) while it pushes: the pre-grasp's ``rotation`` turned about the
+    horizontal axis across G's x-axis (where the gripper points) so that x tips down by
+    ``pitch`` (rad); ``rotation`` itself where pitch is 0 or x is vertical."""
+    axis = np.cross(rotation[:, 0], [0.0, 0.0, 1.0])
+    if pitch == 0.0 or np.linalg.norm(axis) < 1e-9:
+        return rotation
+    turn = Rotation.from_rotvec(-pitch * axis / np.linalg.norm(axis))
+    return turn.as_matrix() @ rotation
+
+
+def turning(rotation: np.ndarray, turned: np.ndarray, speed: float,
+            knot_time: float) -> np.ndarray:
+    """G's rotations (K, 3, 3) from ``rotation`` (excluded) to ``turned`` (included) at
+    ``speed`` (rad/s), slerped; none (0, 3, 3) where they are the same."""
+    pair = Rotation.from_matrix(np.stack([rotation, turned]))
+    angle = float((pair[0].inv() * pair[1]).magnitude())
+    knots = int(np.ceil(angle / (speed * knot_time))) if angle > 1e-9 else 0
+    return Slerp([0.0, 1.0], pair)(np.arange(1, knots + 1) / max(knots, 1)).as_matrix()
+
+
 def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame,
                 q0: np.ndarray, rotation: np.ndarray, before: Offsets, after: Offsets,
                 move: Move, config: Config, blocked: list[Blocked] | None = None
                 ) -> tuple[np.ndarray | None, str]:
     """The knots (K, 8) of ``move`` from q0 back to q0 (module docstring), the board at
-    ``before`` and ``after`` the move, G at ``rotation`` (3, 3), the first that is not refused
-    at the contact heights and ways in in order; (None, why) where refused: the reasons of
-    each tried, and each box that blocked a way appended to ``blocked`` where given. The path
-    clears the shelf (`clearance.dense_check`)."""
+    ``before`` and ``after`` the move, G at the pre-grasp's ``rotation`` (3, 3) tipped down by
+    ``rearrange.push_pitch`` (`push_rotation`, turned to in front of the shelf), the first
+    that is not refused at the contact heights and ways in in order; (None, why) where
+    refused: the reasons of each tried, and each box that blocked a way appended to
+    ``blocked`` where given. The path clears the shelf (`clearance.dense_check`)."""
     poses = world_poses(geometry, before)
+    pushing = push_rotation(rotation, config.rearrange.push_pitch)
+    turns = turning(rotation, pushing, config.rearrange.turn_speed, config.baseline.knot_time)
     reasons: list[str] = []
     found: list[Blocked] = []
     for p0 in contact_points(geometry, poses, move, float(frame.positions[-1][2]), config):
         for way in ("direct", "corridor"):
-            q_in, gap, why, by = _way_in(geometry, frame, q0, rotation, poses, move, p0, way,
-                                         config)
+            q_in, gap, why, by = _way_in(geometry, frame, q0, turns, pushing, poses, move,
+                                         p0, way, config)
             if q_in is None:
                 reasons.append(why)
                 found += [by] if by is not None else []
                 continue
             path, why, by = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move,
-                                          rotation, config)
-            if path is not None and dense_check(clearance, path[:, :ARM],
-                                                config.baseline).passed:
+                                          pushing, config)
+            why = why or _outside_limits(path, config)
+            if path is not None and not why and dense_check(clearance, path[:, :ARM],
+                                                            config.baseline).passed:
                 return path, ""
             reasons.append(why or f"the arm meets the shelf ({way} way in)")
             found += [by] if by is not None else []
@@ -150,10 +179,21 @@ def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
     return None, "; ".join(reasons)
 
 
-def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotation: np.ndarray,
-            poses: dict, move: Move, p0: np.ndarray, way: str, config: Config
-            ) -> tuple[np.ndarray | None, float, str, Blocked | None]:
-    """The knots from q0 (excluded) to the pre-contact point ``p0`` (3,): "direct" (out in
+def _outside_limits(path: np.ndarray | None, config: Config) -> str:
+    """Why the knots ``path`` (K, 8; None: nothing to check) leave the judge's joint and speed
+    limits (`trajectory.plan_limit_violation`), or ''."""
+    if path is None:
+        return ""
+    times = np.arange(len(path)) * config.baseline.knot_time
+    violation = plan_limit_violation(Trajectory(times, path), config.evaluation)
+    return f"the path leaves the judge's limits: {violation}" if violation else ""
+
+
+def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, turns: np.ndarray,
+            rotation: np.ndarray, poses: dict, move: Move, p0: np.ndarray, way: str,
+            config: Config) -> tuple[np.ndarray | None, float, str, Blocked | None]:
+    """The knots from q0 (excluded) to the pre-contact point ``p0`` (3,), G first turned in
+    place through ``turns`` (K, 3, 3) to ``rotation`` (3, 3), then: "direct" (out in
     front of the shelf to ``p0``'s side and height, then in along the approach) or
     "corridor" (along the reach's own G path to ``p0``'s depth, then across to it); backed
     off along -u once where the closed gripper already touches the box there. Also the
@@ -174,7 +214,10 @@ def _way_in(geometry: ArmGeometry, frame: ApproachFrame, q0: np.ndarray, rotatio
             corner = ahead[-1]
             targets = np.vstack([_path_at_speed(ahead, cfg.tool_speed, dt),
                                  _segment(corner, p0, cfg.tool_speed, dt)])
-        q_in, error = follow_chain(geometry, q0, targets, rotation,
+        targets = np.vstack([np.repeat(start[None], len(turns), axis=0), targets])
+        rotations = np.concatenate([turns, np.broadcast_to(rotation, (len(targets) - len(turns),
+                                                                      3, 3))])
+        q_in, error = follow_chain(geometry, q0, targets, rotations,
                                    np.full(len(targets), CLOSED))
         if error > POSE_LIMIT:
             return None, np.nan, f"G misses the {way} way in by {error * 1e3:.1f} mm", None

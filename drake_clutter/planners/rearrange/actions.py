@@ -3,7 +3,8 @@
 A move pushes box B along a horizontal unit direction u by ``travel`` (m). Its path, from and
 back to the reach's first configuration q0 (outside the shelf), moves the tool frame G with the
 pre-grasp's orientation (its axis tipped down by ``push_pitch``, turned to in place at q0's G
-at ``turn_speed``) and the gripper closed through:
+at ``turn_speed``; where every tilted path is refused, untilted) and the gripper closed
+through:
 
 1. the portal in: G at the pre-contact point's height and side, as far out as q0's G;
 2. the pre-contact point: B's centre at ``push_height`` of its height, backed off along -u by
@@ -149,34 +150,49 @@ def action_path(geometry: ArmGeometry, clearance: ShelfClearance, frame: Approac
                 ) -> tuple[np.ndarray | None, str]:
     """The knots (K, 8) of ``move`` from q0 back to q0 (module docstring), the board at
     ``before`` and ``after`` the move, G at the pre-grasp's ``rotation`` (3, 3) tipped down by
-    ``rearrange.push_pitch`` (`push_rotation`, turned to in front of the shelf), the first
-    that is not refused at the contact heights and ways in in order; (None, why) where
-    refused: the reasons of each tried, and each box that blocked a way appended to
-    ``blocked`` where given. The path clears the shelf (`clearance.dense_check`)."""
+    ``rearrange.push_pitch`` (`push_rotation`, turned to in front of the shelf) and, where
+    that is refused, untilted: the first that is not refused at the tilts, contact heights and
+    ways in in order; (None, why) where refused: the reasons of each tried, and each box that
+    blocked a way appended to ``blocked`` where given. The path clears the shelf
+    (`clearance.dense_check`)."""
     poses = world_poses(geometry, before)
-    pushing = push_rotation(rotation, config.rearrange.push_pitch)
-    turns = turning(rotation, pushing, config.rearrange.turn_speed, config.baseline.knot_time)
+    tilted = push_rotation(rotation, config.rearrange.push_pitch)
     reasons: list[str] = []
     found: list[Blocked] = []
-    for p0 in contact_points(geometry, poses, move, float(frame.positions[-1][2]), config):
-        for way in ("direct", "corridor"):
-            q_in, gap, why, by = _way_in(geometry, frame, q0, turns, pushing, poses, move,
-                                         p0, way, config)
-            if q_in is None:
+    for pushing in [tilted] + ([rotation] if tilted is not rotation else []):
+        turns = turning(rotation, pushing, config.rearrange.turn_speed,
+                        config.baseline.knot_time)
+        for p0 in contact_points(geometry, poses, move, float(frame.positions[-1][2]), config):
+            for way in ("direct", "corridor"):
+                path, why, by = _one_way(geometry, clearance, frame, q0, turns, pushing, poses,
+                                         after, move, p0, way, config)
+                if path is not None:
+                    return path, ""
                 reasons.append(why)
                 found += [by] if by is not None else []
-                continue
-            path, why, by = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move,
-                                          pushing, config)
-            why = why or _outside_limits(path, config)
-            if path is not None and not why and dense_check(clearance, path[:, :ARM],
-                                                            config.baseline).passed:
-                return path, ""
-            reasons.append(why or f"the arm meets the shelf ({way} way in)")
-            found += [by] if by is not None else []
     if blocked is not None:
         blocked += found
     return None, "; ".join(reasons)
+
+
+def _one_way(geometry: ArmGeometry, clearance: ShelfClearance, frame: ApproachFrame,
+             q0: np.ndarray, turns: np.ndarray, pushing: np.ndarray, poses: dict,
+             after: Offsets, move: Move, p0: np.ndarray, way: str, config: Config
+             ) -> tuple[np.ndarray | None, str, Blocked | None]:
+    """The action's knots (K, 8) through one way in (`_way_in`) to the pre-contact point
+    ``p0`` (3,) with G at ``pushing`` (3, 3) after ``turns``, or (None, why, the box that
+    blocked it or None)."""
+    q_in, gap, why, by = _way_in(geometry, frame, q0, turns, pushing, poses, move, p0, way,
+                                 config)
+    if q_in is None:
+        return None, why, by
+    path, why, by = _push_and_out(geometry, frame, q0, q_in, gap, poses, after, move, pushing,
+                                  config)
+    why = why or _outside_limits(path, config)
+    if path is not None and not why and dense_check(clearance, path[:, :ARM],
+                                                    config.baseline).passed:
+        return path, "", None
+    return None, why or f"the arm meets the shelf ({way} way in)", by
 
 
 def _outside_limits(path: np.ndarray | None, config: Config) -> str:

@@ -11,6 +11,7 @@ import pytest
 from drake_clutter.common.config import ConfigError, load_config
 from drake_clutter.planners.budget import Deadline
 from drake_clutter.planners.clearance import dense_check
+from drake_clutter.planners.rearrange import actions
 from drake_clutter.planners.rearrange.actions import push_rotation, turning
 from drake_clutter.planners.rearrange.board import crowding, reach_region
 from drake_clutter.planners.rearrange.search import search_room
@@ -67,12 +68,25 @@ def _search(context, reach_q, overrides: list[str]):
     return config, geometry, frame, rotation, region, found
 
 
-def test_a_tilt_the_arm_cannot_turn_to_in_front_of_the_shelf_is_refused_saying_so(
+def test_a_tilt_the_arm_cannot_turn_to_is_refused_and_the_push_tried_untilted(
         context, reach_q):
     # at 0.5 rad the wrist must rise past the shoulder's lift limit at the reach's first knot
-    *_, found = _search(context, reach_q, ["rearrange.push_pitch=0.5"])
-    assert found.goals == []
-    assert any("leaves the judge's limits: r_shoulder_lift_joint" in r for r in found.reasons)
+    *_, tilted = _search(context, reach_q, ["rearrange.push_pitch=0.5"])
+    *_, untilted = _search(context, reach_q, [])
+    assert tilted.goals and len(tilted.goals) == len(untilted.goals)
+    for a, b in zip(tilted.goals, untilted.goals, strict=True):
+        assert [m.to_data() for m in a.moves] == [m.to_data() for m in b.moves]
+        for p, q in zip(a.paths, b.paths, strict=True):
+            np.testing.assert_array_equal(p, q)
+
+
+def test_a_path_outside_the_judges_limits_says_which_joint(reach_q):
+    config = load_config(None, [])
+    assert actions._outside_limits(reach_q, config) == ""
+    assert actions._outside_limits(None, config) == ""
+    raised = reach_q.copy()
+    raised[2:, 1] = -0.6  # the shoulder lifted past its -0.524 rad limit
+    assert "r_shoulder_lift_joint at -0.600 rad" in actions._outside_limits(raised, config)
 
 
 def test_tilted_pushes_clear_the_grasp_within_the_limits(context, reach_q):

@@ -19,11 +19,11 @@ through:
 Knots are ``baseline.knot_time`` apart; G moves at ``tool_speed`` except while it pushes. The
 joints follow G knot by knot (`tool_path.follow_chain`). The path is refused (None, with the
 reason) where G misses its targets, the knots leave the judge's joint or speed limits, or the
-arm enters a box it does not push by more than
-``entry_tolerance`` on the way in or out (boxes at the board's poses before the move; after
-it on the way out). A refused path names the boxes that blocked it (`Blocked`: a box not
-pushed, entered too deep on the way in, while pushing or on the way out where that box stays
-put) with the knots that entered it, so a search can push that box out of the way first.
+arm enters a box it does not push by more than ``entry_tolerance`` on the way in or out
+(boxes at the board's poses before the move; after it on the way out). A refused path names
+the boxes that blocked it (`Blocked`: a box not pushed, entered too deep on the way in, while
+pushing or on the way out where that box stays put) with the knots that entered it, so a
+search can push that box out of the way first.
 Frames: W; metres, seconds.
 """
 
